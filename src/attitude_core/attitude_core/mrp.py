@@ -1,0 +1,170 @@
+"""Modified Rodrigues Parameters (MRPs): attitude, shadow set and kinematics.
+
+Conventions (paper eqs. 1-3 and 12):
+
+* ``sigma_bn`` is the MRP of the body frame B relative to the inertial frame N,
+  ``sigma = e_hat * tan(Phi / 4)``.
+* ``dcm_from_mrp(sigma_bn)`` is ``C_BN``: it maps inertial components to body
+  components (``v_B = C_BN v_N``).
+* Quaternions are scalar-last ``(x, y, z, w)`` as in ROS and SciPy, and describe the
+  body orientation in the inertial frame (``Rotation.from_mrp(sigma_bn).as_quat()``).
+* Angular rates ``omega`` are body rates relative to N in body components, rad/s.
+
+Every function accepts a single 3-vector or a stack ``(..., 3)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = [
+    "skew",
+    "dcm_from_mrp",
+    "shadow",
+    "to_principal",
+    "b_matrix",
+    "mrp_rate",
+    "omega_from_mrp_rate",
+    "compose",
+    "relative",
+    "quat_from_mrp",
+    "mrp_from_quat",
+    "principal_angle",
+]
+
+
+def skew(v: np.ndarray) -> np.ndarray:
+    """Skew-symmetric cross-product matrix ``[v x]`` (``skew(a) @ b == cross(a, b)``)."""
+    v = np.asarray(v, dtype=float)
+    z = np.zeros(v.shape[:-1])
+    x, y, w = v[..., 0], v[..., 1], v[..., 2]
+    return np.stack(
+        [np.stack([z, -w, y], -1), np.stack([w, z, -x], -1), np.stack([-y, x, z], -1)], -2
+    )
+
+
+def dcm_from_mrp(sigma: np.ndarray) -> np.ndarray:
+    """Direction cosine matrix ``C_BN(sigma_bn)``.
+
+    ``C = I + (8 [s x]^2 - 4 (1 - s.s) [s x]) / (1 + s.s)^2``.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
+    sx = skew(sigma)
+    eye = np.eye(3)
+    return eye + (8.0 * sx @ sx - 4.0 * (1.0 - s2) * sx) / (1.0 + s2) ** 2
+
+
+def shadow(sigma: np.ndarray) -> np.ndarray:
+    """Shadow MRP set ``sigma^S = -sigma / (sigma^T sigma)`` (eq. 2); same attitude."""
+    sigma = np.asarray(sigma, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    return -sigma / s2
+
+
+def to_principal(sigma: np.ndarray) -> np.ndarray:
+    """Return the MRP set with ``|sigma| <= 1`` (switch to the shadow set when longer)."""
+    sigma = np.asarray(sigma, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    return np.where(s2 > 1.0, -sigma / np.where(s2 > 0.0, s2, 1.0), sigma)
+
+
+def b_matrix(sigma: np.ndarray) -> np.ndarray:
+    """Kinematic matrix ``B(sigma) = (1 - s.s) I + 2 [s x] + 2 s s^T`` (eq. 3)."""
+    sigma = np.asarray(sigma, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
+    return (
+        (1.0 - s2) * np.eye(3)
+        + 2.0 * skew(sigma)
+        + 2.0 * sigma[..., :, None] * sigma[..., None, :]
+    )
+
+
+def mrp_rate(sigma: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """MRP rate ``sigma_dot = B(sigma) omega / 4`` (eq. 3), omega in body axes, rad/s."""
+    sigma = np.asarray(sigma, dtype=float)
+    omega = np.asarray(omega, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    sw = np.einsum("...i,...i->...", sigma, omega)[..., None]
+    return 0.25 * ((1.0 - s2) * omega + 2.0 * np.cross(sigma, omega) + 2.0 * sigma * sw)
+
+
+def omega_from_mrp_rate(sigma: np.ndarray, sigma_dot: np.ndarray) -> np.ndarray:
+    """Body rate from the MRP rate, ``omega = 4 B^T sigma_dot / (1 + s.s)^2`` (eq. 12).
+
+    Uses ``B^T B = (1 + s.s)^2 I``, so this is the exact inverse of :func:`mrp_rate`.
+    """
+    sigma = np.asarray(sigma, dtype=float)
+    sd = np.asarray(sigma_dot, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    ssd = np.einsum("...i,...i->...", sigma, sd)[..., None]
+    bt_sd = (1.0 - s2) * sd - 2.0 * np.cross(sigma, sd) + 2.0 * sigma * ssd
+    return 4.0 * bt_sd / (1.0 + s2) ** 2
+
+
+def compose(sigma_outer: np.ndarray, sigma_inner: np.ndarray) -> np.ndarray:
+    """MRP of ``C(sigma_outer) C(sigma_inner)``, e.g. ``sigma_BN = compose(sigma_BR, sigma_RN)``.
+
+    Computed through quaternions so that it is defined for every pair (the closed MRP
+    formula divides by zero for a 360 deg composite); the result has ``|sigma| <= 1``.
+    """
+    q = _quat_mul(_q_from_mrp_sf(sigma_outer), _q_from_mrp_sf(sigma_inner))
+    return _mrp_from_q_sf(q)
+
+
+def relative(sigma_bn: np.ndarray, sigma_rn: np.ndarray) -> np.ndarray:
+    """Relative MRP ``sigma_B/R`` of frame B with respect to frame R, ``|sigma| <= 1``.
+
+    ``C(sigma_B/R) = C_BN C_RN^T``; this is the paper's attitude error ``sigma_e``.
+    """
+    q_rn = _q_from_mrp_sf(sigma_rn)
+    q_rn_conj = q_rn * np.array([1.0, -1.0, -1.0, -1.0])
+    q = _quat_mul(_q_from_mrp_sf(sigma_bn), q_rn_conj)
+    return _mrp_from_q_sf(q)
+
+
+def quat_from_mrp(sigma_bn: np.ndarray) -> np.ndarray:
+    """Body orientation in the inertial frame as a unit quaternion ``(x, y, z, w)``, ``w >= 0``."""
+    q = _q_from_mrp_sf(to_principal(sigma_bn))
+    return np.concatenate([q[..., 1:], q[..., :1]], -1)
+
+
+def mrp_from_quat(quat_xyzw: np.ndarray) -> np.ndarray:
+    """MRP ``sigma_bn`` (``|sigma| <= 1``) from a quaternion ``(x, y, z, w)``; normalises it."""
+    q = np.asarray(quat_xyzw, dtype=float)
+    q = q / np.linalg.norm(q, axis=-1, keepdims=True)
+    return _mrp_from_q_sf(np.concatenate([q[..., 3:], q[..., :3]], -1))
+
+
+def principal_angle(sigma: np.ndarray) -> np.ndarray:
+    """Principal rotation angle in radians, in ``[0, pi]`` (short way)."""
+    s = np.linalg.norm(to_principal(sigma), axis=-1)
+    return 4.0 * np.arctan(s)
+
+
+# --- scalar-first quaternion helpers (private; q = [q0, q1, q2, q3]) ---------------
+
+
+def _q_from_mrp_sf(sigma: np.ndarray) -> np.ndarray:
+    sigma = np.asarray(sigma, dtype=float)
+    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    return np.concatenate([(1.0 - s2), 2.0 * sigma], -1) / (1.0 + s2)
+
+
+def _mrp_from_q_sf(q: np.ndarray) -> np.ndarray:
+    # Choose the sign with q0 >= 0 so that |sigma| <= 1.
+    q = np.where(q[..., :1] < 0.0, -q, q)
+    return q[..., 1:] / (1.0 + q[..., :1])
+
+
+def _quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Quaternion product for DCM composition: ``C(p (x) q) = C(p) C(q)``.
+
+    With ``C`` the passive DCM of a scalar-first quaternion this is the Schaub & Junkins
+    convention ``[p0 q0 - p.q, p0 q + q0 p - p x q]``.
+    """
+    p0, pv = p[..., :1], p[..., 1:]
+    q0, qv = q[..., :1], q[..., 1:]
+    w = p0 * q0 - np.einsum("...i,...i->...", pv, qv)[..., None]
+    v = p0 * qv + q0 * pv - np.cross(pv, qv)
+    return np.concatenate([w, v], -1)
