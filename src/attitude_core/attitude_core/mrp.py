@@ -20,16 +20,21 @@ import numpy as np
 __all__ = [
     "skew",
     "dcm_from_mrp",
+    "dcm_from_mrp_single",
     "shadow",
     "to_principal",
     "b_matrix",
     "mrp_rate",
     "omega_from_mrp_rate",
+    "omega_from_mrp_rate_single",
     "compose",
     "relative",
     "quat_from_mrp",
     "mrp_from_quat",
     "principal_angle",
+    "quat_mul_sf",
+    "quat_sf_from_mrp",
+    "mrp_from_quat_sf",
 ]
 
 
@@ -53,6 +58,22 @@ def dcm_from_mrp(sigma: np.ndarray) -> np.ndarray:
     sx = skew(sigma)
     eye = np.eye(3)
     return eye + (8.0 * sx @ sx - 4.0 * (1.0 - s2) * sx) / (1.0 + s2) ** 2
+
+
+def dcm_from_mrp_single(sigma) -> np.ndarray:
+    """``C_BN`` for one MRP set, written with scalars for the per-step hot path.
+
+    Same formula as :func:`dcm_from_mrp`: ``C = I + (8 (s s^T - s.s I) - 4 (1 - s.s) [s x]) / (1 + s.s)^2``.
+    """
+    s1, s2, s3 = float(sigma[0]), float(sigma[1]), float(sigma[2])
+    ss = s1 * s1 + s2 * s2 + s3 * s3
+    k8 = 8.0 / (1.0 + ss) ** 2
+    k4 = 4.0 * (1.0 - ss) / (1.0 + ss) ** 2
+    return np.array([
+        [1.0 + k8 * (s1 * s1 - ss), k8 * s1 * s2 + k4 * s3, k8 * s1 * s3 - k4 * s2],
+        [k8 * s2 * s1 - k4 * s3, 1.0 + k8 * (s2 * s2 - ss), k8 * s2 * s3 + k4 * s1],
+        [k8 * s3 * s1 + k4 * s2, k8 * s3 * s2 - k4 * s1, 1.0 + k8 * (s3 * s3 - ss)],
+    ])
 
 
 def shadow(sigma: np.ndarray) -> np.ndarray:
@@ -102,14 +123,29 @@ def omega_from_mrp_rate(sigma: np.ndarray, sigma_dot: np.ndarray) -> np.ndarray:
     return 4.0 * bt_sd / (1.0 + s2) ** 2
 
 
+def omega_from_mrp_rate_single(sigma, sigma_dot) -> np.ndarray:
+    """Eq. 12 for one MRP set, in plain floats (hot path of the planner)."""
+    s1, s2, s3 = float(sigma[0]), float(sigma[1]), float(sigma[2])
+    d1, d2, d3 = float(sigma_dot[0]), float(sigma_dot[1]), float(sigma_dot[2])
+    ss = s1 * s1 + s2 * s2 + s3 * s3
+    sd = s1 * d1 + s2 * d2 + s3 * d3
+    k = 4.0 / (1.0 + ss) ** 2
+    a = 1.0 - ss
+    return np.array([
+        k * (a * d1 - 2.0 * (s2 * d3 - s3 * d2) + 2.0 * s1 * sd),
+        k * (a * d2 - 2.0 * (s3 * d1 - s1 * d3) + 2.0 * s2 * sd),
+        k * (a * d3 - 2.0 * (s1 * d2 - s2 * d1) + 2.0 * s3 * sd),
+    ])
+
+
 def compose(sigma_outer: np.ndarray, sigma_inner: np.ndarray) -> np.ndarray:
     """MRP of ``C(sigma_outer) C(sigma_inner)``, e.g. ``sigma_BN = compose(sigma_BR, sigma_RN)``.
 
     Computed through quaternions so that it is defined for every pair (the closed MRP
     formula divides by zero for a 360 deg composite); the result has ``|sigma| <= 1``.
     """
-    q = _quat_mul(_q_from_mrp_sf(sigma_outer), _q_from_mrp_sf(sigma_inner))
-    return _mrp_from_q_sf(q)
+    q = quat_mul_sf(quat_sf_from_mrp(sigma_outer), quat_sf_from_mrp(sigma_inner))
+    return mrp_from_quat_sf(q)
 
 
 def relative(sigma_bn: np.ndarray, sigma_rn: np.ndarray) -> np.ndarray:
@@ -117,15 +153,15 @@ def relative(sigma_bn: np.ndarray, sigma_rn: np.ndarray) -> np.ndarray:
 
     ``C(sigma_B/R) = C_BN C_RN^T``; this is the paper's attitude error ``sigma_e``.
     """
-    q_rn = _q_from_mrp_sf(sigma_rn)
+    q_rn = quat_sf_from_mrp(sigma_rn)
     q_rn_conj = q_rn * np.array([1.0, -1.0, -1.0, -1.0])
-    q = _quat_mul(_q_from_mrp_sf(sigma_bn), q_rn_conj)
-    return _mrp_from_q_sf(q)
+    q = quat_mul_sf(quat_sf_from_mrp(sigma_bn), q_rn_conj)
+    return mrp_from_quat_sf(q)
 
 
 def quat_from_mrp(sigma_bn: np.ndarray) -> np.ndarray:
     """Body orientation in the inertial frame as a unit quaternion ``(x, y, z, w)``, ``w >= 0``."""
-    q = _q_from_mrp_sf(to_principal(sigma_bn))
+    q = quat_sf_from_mrp(to_principal(sigma_bn))
     return np.concatenate([q[..., 1:], q[..., :1]], -1)
 
 
@@ -133,7 +169,7 @@ def mrp_from_quat(quat_xyzw: np.ndarray) -> np.ndarray:
     """MRP ``sigma_bn`` (``|sigma| <= 1``) from a quaternion ``(x, y, z, w)``; normalises it."""
     q = np.asarray(quat_xyzw, dtype=float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
-    return _mrp_from_q_sf(np.concatenate([q[..., 3:], q[..., :3]], -1))
+    return mrp_from_quat_sf(np.concatenate([q[..., 3:], q[..., :3]], -1))
 
 
 def principal_angle(sigma: np.ndarray) -> np.ndarray:
@@ -142,23 +178,25 @@ def principal_angle(sigma: np.ndarray) -> np.ndarray:
     return 4.0 * np.arctan(s)
 
 
-# --- scalar-first quaternion helpers (private; q = [q0, q1, q2, q3]) ---------------
+# --- scalar-first quaternion helpers (q = [q0, q1, q2, q3]) ---------------------------
 
 
-def _q_from_mrp_sf(sigma: np.ndarray) -> np.ndarray:
+def quat_sf_from_mrp(sigma: np.ndarray) -> np.ndarray:
+    """Scalar-first Euler parameters ``[q0, q1, q2, q3]`` of ``C(sigma)`` (sign not normalised)."""
     sigma = np.asarray(sigma, dtype=float)
     s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
     return np.concatenate([(1.0 - s2), 2.0 * sigma], -1) / (1.0 + s2)
 
 
-def _mrp_from_q_sf(q: np.ndarray) -> np.ndarray:
+def mrp_from_quat_sf(q: np.ndarray) -> np.ndarray:
+    """MRP with ``|sigma| <= 1`` from scalar-first Euler parameters."""
     # Choose the sign with q0 >= 0 so that |sigma| <= 1.
     q = np.where(q[..., :1] < 0.0, -q, q)
     return q[..., 1:] / (1.0 + q[..., :1])
 
 
-def _quat_mul(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Quaternion product for DCM composition: ``C(p (x) q) = C(p) C(q)``.
+def quat_mul_sf(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """Scalar-first quaternion product for DCM composition: ``C(p (x) q) = C(p) C(q)``.
 
     With ``C`` the passive DCM of a scalar-first quaternion this is the Schaub & Junkins
     convention ``[p0 q0 - p.q, p0 q + q0 p - p x q]``.

@@ -1,0 +1,294 @@
+"""Keep-out constraint geometry (paper eq. 5) and its obstacles in MRP space.
+
+An instrument ``i`` (body boresight ``s_i``, half-angle ``beta_i``) violates the
+keep-out cone of bright object ``j`` (inertial direction ``c_j``) when
+``s_i^T C_BN(sigma) c_j >= cos(beta_i)``. The *margin* is the angle between the
+boresight (in inertial axes) and the object minus ``beta_i``; positive is safe.
+
+MRP-space obstacles. All attitudes that point boresight ``s`` along one inertial
+direction ``b`` form a great circle on the unit-quaternion sphere (rotations about
+``s``); stereographic projection (the MRP map, eq. 1) sends it to a circle in R^3
+that contains both MRP sets (eq. 2) of each of those attitudes. The keep-out region
+of one (instrument, object) pair is the union of such circles over the spherical cap
+``angle(b, c) < beta``, and its boundary is the union over the cap's rim. The distance
+from ``sigma`` to the region is therefore the minimum over the rim of the closed-form
+point-to-circle distance. Rim circles are precomputed once per scenario at
+``samples`` rim angles; a parabolic refinement of the squared distance between
+neighbouring rim samples makes the query exact to second order. Because the circles
+live in all of R^3, an obstacle on the far side of ``|sigma| = 1`` (seen through the
+shadow set) is found like any other.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .mrp import dcm_from_mrp, quat_mul_sf
+
+__all__ = ["KeepOutGeometry", "ObstacleQuery", "margins_deg_from_dcm"]
+
+
+def _unit_rows(v: np.ndarray) -> np.ndarray:
+    v = np.atleast_2d(np.asarray(v, dtype=float))
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def margins_deg_from_dcm(
+    c_bn: np.ndarray, boresights_body: np.ndarray, half_angles_deg: np.ndarray,
+    directions_inertial: np.ndarray,
+) -> np.ndarray:
+    """Keep-out margins in degrees, shape ``(..., n_instruments, n_objects)``.
+
+    ``margin_ij = angle(C_BN^T s_i, c_j) - beta_i`` (eq. 5 holds iff margin > 0).
+    """
+    # Boresights in inertial axes: b_i = C_BN^T s_i  -> (..., n_i, 3)
+    b_n = np.einsum("...ki,nk->...ni", c_bn, boresights_body)
+    cosang = np.clip(np.einsum("...ni,mi->...nm", b_n, directions_inertial), -1.0, 1.0)
+    return np.degrees(np.arccos(cosang)) - np.asarray(half_angles_deg)[:, None]
+
+
+@dataclass(frozen=True)
+class ObstacleQuery:
+    """Result of :meth:`KeepOutGeometry.closest_obstacle`.
+
+    ``distance`` is the Euclidean MRP-space distance from ``sigma`` to the closest
+    keep-out region boundary (negative inside a region); ``direction`` is the unit
+    vector pointing from ``sigma`` into that region (the paper's ``sigma_c_hat``:
+    towards the closest boundary point outside, away from it inside);
+    ``instrument``/``bright_object`` index the pair that owns that region.
+    """
+
+    distance: float
+    direction: np.ndarray
+    closest_point: np.ndarray
+    instrument: int
+    bright_object: int
+
+
+class KeepOutGeometry:
+    """Keep-out cones for any number of instruments and bright objects.
+
+    Parameters
+    ----------
+    boresights_body : (n_i, 3) instrument boresights ``s_i`` in body axes.
+    half_angles_deg : (n_i,) cone half-angles ``beta_i`` in degrees.
+    directions_inertial : (n_j, 3) bright-object directions ``c_j`` in inertial axes.
+    inflation_deg : extra angle added to every ``beta_i`` for the MRP obstacles
+        (a planner safety buffer); the exact margins are not inflated.
+    samples : rim samples per (instrument, object) pair for the MRP obstacles.
+    """
+
+    def __init__(
+        self,
+        boresights_body: np.ndarray,
+        half_angles_deg: np.ndarray,
+        directions_inertial: np.ndarray,
+        inflation_deg: float = 0.0,
+        samples: int = 180,
+    ) -> None:
+        self.boresights_body = _unit_rows(boresights_body)
+        self.half_angles_deg = np.atleast_1d(np.asarray(half_angles_deg, dtype=float))
+        self.directions_inertial = _unit_rows(directions_inertial)
+        self.inflation_deg = float(inflation_deg)
+        self.samples = int(samples)
+        n_i, n_j = len(self.boresights_body), len(self.directions_inertial)
+        if self.half_angles_deg.shape != (n_i,):
+            raise ValueError("half_angles_deg must have one entry per boresight")
+        self.n_instruments, self.n_objects = n_i, n_j
+        self._instruments_py = list(zip(map(tuple, self.boresights_body.tolist()),
+                                        self.half_angles_deg.tolist()))
+        self._objects_py = [tuple(v) for v in self.directions_inertial.tolist()]
+        self._build_rim_circles()
+
+    # --- exact margins --------------------------------------------------------
+
+    def margins_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """Exact margins ``(..., n_i, n_j)`` in degrees at attitude(s) ``sigma_bn``."""
+        return margins_deg_from_dcm(
+            dcm_from_mrp(sigma_bn), self.boresights_body, self.half_angles_deg,
+            self.directions_inertial,
+        )
+
+    def min_margin_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """Smallest exact margin over all pairs, degrees (``> 0`` means eq. 5 holds)."""
+        m = self.margins_deg(sigma_bn)
+        return m.reshape(m.shape[:-2] + (-1,)).min(axis=-1)
+
+    def min_margin_deg_single(self, sigma_bn) -> float:
+        """Smallest exact margin for one attitude, degrees.
+
+        Hot-path form of :meth:`min_margin_deg` in plain floats (no array overhead).
+        """
+        s1, s2, s3 = float(sigma_bn[0]), float(sigma_bn[1]), float(sigma_bn[2])
+        ss = s1 * s1 + s2 * s2 + s3 * s3
+        d = (1.0 + ss) ** 2
+        k8, k4 = 8.0 / d, 4.0 * (1.0 - ss) / d
+        # Rows of C_BN (see mrp.dcm_from_mrp_single); b = C^T s = sum_r s_r C[r, :].
+        r0 = (1.0 + k8 * (s1 * s1 - ss), k8 * s1 * s2 + k4 * s3, k8 * s1 * s3 - k4 * s2)
+        r1 = (k8 * s2 * s1 - k4 * s3, 1.0 + k8 * (s2 * s2 - ss), k8 * s2 * s3 + k4 * s1)
+        r2 = (k8 * s3 * s1 + k4 * s2, k8 * s3 * s2 - k4 * s1, 1.0 + k8 * (s3 * s3 - ss))
+        best = math.inf
+        for (a, b, c), beta in self._instruments_py:
+            bx = a * r0[0] + b * r1[0] + c * r2[0]
+            by = a * r0[1] + b * r1[1] + c * r2[1]
+            bz = a * r0[2] + b * r1[2] + c * r2[2]
+            cmax = max(bx * x + by * y + bz * z for x, y, z in self._objects_py)
+            m = math.degrees(math.acos(min(max(cmax, -1.0), 1.0))) - beta
+            if m < best:
+                best = m
+        return best
+
+    def min_margin_deg_from_dcm(self, c_bn: np.ndarray) -> np.ndarray:
+        """Smallest exact margin over all pairs for DCM(s) ``C_BN``, degrees."""
+        m = margins_deg_from_dcm(
+            c_bn, self.boresights_body, self.half_angles_deg, self.directions_inertial
+        )
+        return m.reshape(m.shape[:-2] + (-1,)).min(axis=-1)
+
+    # --- MRP-space obstacles --------------------------------------------------
+
+    def _build_rim_circles(self) -> None:
+        """Precompute the rim circles (centre, unit normal, radius) of every pair."""
+        k = self.samples
+        phi = 2.0 * np.pi * np.arange(k) / k
+        centres, normals, radii = [], [], []
+        for i, s in enumerate(self.boresights_body):
+            beta = np.radians(self.half_angles_deg[i] + self.inflation_deg)
+            for c in self.directions_inertial:
+                e1 = np.cross(c, [1.0, 0.0, 0.0])
+                if np.linalg.norm(e1) < 0.5:
+                    e1 = np.cross(c, [0.0, 1.0, 0.0])
+                e1 /= np.linalg.norm(e1)
+                e2 = np.cross(c, e1)
+                # Boresight directions on the cone rim, inertial axes: (k, 3)
+                b = (np.cos(beta) * c[None, :]
+                     + np.sin(beta) * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2))
+                cc, nn, rr = _fiber_circles(s, b)
+                centres.append(cc)
+                normals.append(nn)
+                radii.append(rr)
+        self._centres = np.concatenate(centres)  # (P*k, 3)
+        self._normals = np.concatenate(normals)
+        self._radii = np.concatenate(radii)
+        # Stacked for one matrix product per query: rows [centres; normals].
+        self._stack = np.concatenate([self._centres, self._normals])
+        self._c_dot_c = np.einsum("ij,ij->i", self._centres, self._centres)
+        self._c_dot_n = np.einsum("ij,ij->i", self._centres, self._normals)
+        self._r2 = self._radii ** 2
+        self._m = len(self._radii)
+        self._circles_py = list(zip(self._centres.tolist(), self._normals.tolist(),
+                                    self._radii.tolist()))
+
+    def rim_distances_sq(self, sigma: np.ndarray) -> np.ndarray:
+        """Squared distance from ``sigma`` to every precomputed rim circle, ``(P*k,)``."""
+        sx, sy, sz = float(sigma[0]), float(sigma[1]), float(sigma[2])
+        proj = self._stack @ np.array((sx, sy, sz))
+        m = self._m
+        s2 = sx * sx + sy * sy + sz * sz
+        dd = s2 - 2.0 * proj[:m] + self._c_dot_c          # |sigma - centre|^2
+        h = proj[m:] - self._c_dot_n                       # axial offset
+        rho = np.sqrt(np.maximum(dd - h * h, 0.0))         # radial offset
+        return np.maximum(dd + self._r2 - 2.0 * self._radii * rho, 0.0)
+
+    def closest_obstacle(self, sigma: np.ndarray) -> ObstacleQuery:
+        """Distance and direction from ``sigma`` to the closest (inflated) keep-out region.
+
+        Accurate to second order in the rim spacing; the sign is negative when
+        ``sigma`` is inside an inflated region.
+        """
+        d2 = self.rim_distances_sq(sigma)
+        idx = int(np.argmin(d2))
+        k = self.samples
+        pair, j = divmod(idx, k)
+        base = pair * k
+        jm, jp = base + (j - 1) % k, base + (j + 1) % k
+        f0, fm, fp = float(d2[idx]), float(d2[jm]), float(d2[jp])
+        # Parabola through (-1, fm), (0, f0), (1, fp): vertex offset t in [-1/2, 1/2].
+        curv = fm - 2.0 * f0 + fp
+        t = 0.0
+        best = f0
+        if curv > 0.0:
+            t = min(max(0.5 * (fm - fp) / curv, -0.5), 0.5)
+            best = max(f0 - 0.25 * (fm - fp) * t, 0.0)
+        sx, sy, sz = float(sigma[0]), float(sigma[1]), float(sigma[2])
+        p0 = self._closest_on_circle(idx, sx, sy, sz)
+        pn = self._closest_on_circle(jp if t >= 0.0 else jm, sx, sy, sz)
+        a = abs(t)
+        px = p0[0] + a * (pn[0] - p0[0])
+        py = p0[1] + a * (pn[1] - p0[1])
+        pz = p0[2] + a * (pn[2] - p0[2])
+        vx, vy, vz = px - sx, py - sy, pz - sz
+        norm = math.sqrt(vx * vx + vy * vy + vz * vz)
+        dist = math.sqrt(best)
+        if self.min_margin_deg_single(sigma) < self.inflation_deg:
+            dist, norm = -dist, -norm
+        direction = np.array([vx / norm, vy / norm, vz / norm]) if norm != 0.0 else np.zeros(3)
+        inst, obj = divmod(pair, self.n_objects)
+        return ObstacleQuery(dist, direction, np.array([px, py, pz]), inst, obj)
+
+    def _closest_on_circle(self, idx: int, sx: float, sy: float, sz: float):
+        """Closest point to ``(sx, sy, sz)`` on precomputed rim circle ``idx``."""
+        (cx, cy, cz), (nx, ny, nz), r = self._circles_py[idx]
+        dx, dy, dz = sx - cx, sy - cy, sz - cz
+        h = dx * nx + dy * ny + dz * nz
+        rx, ry, rz = dx - h * nx, dy - h * ny, dz - h * nz
+        rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+        if rn < 1e-15:  # on the circle's axis: every point is equally close
+            rx, ry, rz = ny, -nx, 0.0
+            if abs(nz) > 0.9:
+                rx, ry, rz = 0.0, nz, -ny
+            rn = math.sqrt(rx * rx + ry * ry + rz * rz)
+        f = r / rn
+        return (cx + f * rx, cy + f * ry, cz + f * rz)
+
+def _fiber_circles(s_body: np.ndarray, b_inertial: np.ndarray):
+    """MRP-space circles of the attitudes with ``C_BN^T s = b`` for each row ``b``.
+
+    Returns centres ``(k, 3)``, unit normals ``(k, 3)`` and radii ``(k,)``.
+    """
+    k = len(b_inertial)
+    # Passive rotation taking inertial b to body s: q0 = normalise(1 + b.s, s x b).
+    w = 1.0 + b_inertial @ s_body
+    v = np.cross(np.broadcast_to(s_body, b_inertial.shape), b_inertial)
+    q_base = np.concatenate([w[:, None], v], axis=1)
+    anti = w < 1e-9  # b = -s: rotate by pi about any axis normal to s
+    if np.any(anti):
+        perp = np.cross(s_body, [1.0, 0.0, 0.0])
+        if np.linalg.norm(perp) < 0.5:
+            perp = np.cross(s_body, [0.0, 1.0, 0.0])
+        q_base[anti] = np.concatenate([[0.0], perp / np.linalg.norm(perp)])
+    q_base /= np.linalg.norm(q_base, axis=1, keepdims=True)
+    # Three points on each fibre great circle, q(psi) = q_rot(s, psi) (x) q_base,
+    # psi spread over [0, 4 pi); pick the offset keeping them far from q0 = -1
+    # (the MRP point at infinity).
+    best_pts, best_score = None, None
+    for offset in (0.0, 0.7, 1.9, 2.9):
+        psis = offset + 4.0 * np.pi * np.arange(3) / 3.0
+        pts = []
+        score = np.full(k, np.inf)
+        for psi in psis:
+            rot = np.concatenate([[np.cos(psi / 2.0)], np.sin(psi / 2.0) * s_body])
+            q = quat_mul_sf(rot, q_base)
+            score = np.minimum(score, 1.0 + q[:, 0])
+            pts.append(q[:, 1:] / (1.0 + q[:, :1]))
+        if best_score is None:
+            best_pts, best_score = pts, score
+        else:
+            better = score > best_score
+            best_pts = [np.where(better[:, None], p, bp) for p, bp in zip(pts, best_pts)]
+            best_score = np.maximum(score, best_score)
+    a_pt, b_pt, c_pt = best_pts
+    u = a_pt - c_pt
+    v = b_pt - c_pt
+    uxv = np.cross(u, v)
+    nrm2 = np.einsum("ij,ij->i", uxv, uxv)
+    uu = np.einsum("ij,ij->i", u, u)[:, None]
+    vv = np.einsum("ij,ij->i", v, v)[:, None]
+    centre = c_pt + np.cross(uu * v - vv * u, uxv) / (2.0 * nrm2[:, None])
+    radius = np.linalg.norm(centre - c_pt, axis=1)
+    normal = uxv / np.sqrt(nrm2)[:, None]
+    return centre, normal, radius
+

@@ -1,0 +1,311 @@
+"""Fuzzy enhanced potential field (FEPF) guidance in MRP space (paper eqs. 6-10, 12).
+
+At the current target ``sigma_t`` the planner outputs
+``sigma_t_dot = m_a sigma_a_hat + m_r sigma_r_hat`` (eq. 6) with the attractive direction
+``sigma_a_hat = (sigma_d - sigma) / |sigma_d - sigma|`` (eq. 7), the repulsive direction
+``sigma_r_hat = -R(gamma, o_hat) sigma_c_hat`` (eqs. 8-9) and magnitudes ``m_a``, ``m_r``
+from two fuzzy inference systems (:mod:`attitude_core.fuzzy`) whose inputs are scaled
+to [0, 1]. ``sigma_t`` is integrated with an Euler step and ``omega_t`` follows from
+eq. 12.
+
+Rotation axis ``o_hat`` (eq. 10), two forms:
+
+* ``"paper"``: ``o ~ sigma_c_hat x sigma`` as printed (normalised to unit length so that
+  eq. 9 is a rotation; the printed form is not unit length).
+* ``"goal_plane"`` (default): ``o ~ sigma_a_hat x sigma_c_hat``, the normal of the plane
+  holding the goal and obstacle directions, so a positive ``gamma`` turns the
+  repulsion from straight away towards the goal side of the obstacle.
+
+EPF enhancement against the goal-non-reachable-with-obstacles-nearby trap: the
+repulsive term fades out when the goal is closer than the closest obstacle (the
+straight segment to the goal is then provably free), see :func:`_goal_occlusion`.
+
+Safety, beyond the paper: each step is no longer than 0.9 times the distance to the
+closest (inflated) keep-out region, so the whole segment is provably outside it, and
+the end point is re-checked with the exact margin. Improved variant only: a bounded
+target acceleration and a terminal time constant that brings ``sigma_t_dot`` to zero at
+the goal (the paper notes a non-zero terminal rate).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from .constraints import KeepOutGeometry
+from .fuzzy import load_fis
+from .mrp import omega_from_mrp_rate_single
+
+__all__ = ["PlannerStatus", "PlannerOutput", "FepfPlanner", "rotation_matrix"]
+
+
+class PlannerStatus:
+    """Planner status strings (published verbatim by the planner node)."""
+
+    TRACKING = "tracking"
+    ARRIVED = "arrived"
+    STUCK = "stuck"
+    INFEASIBLE = "infeasible"
+
+
+@dataclass(frozen=True)
+class PlannerOutput:
+    """Target for one step: ``sigma_t`` (MRP), ``sigma_t_dot`` (1/s), ``omega_t``
+    (rad/s, target-frame axes), the status, the FIS magnitudes and the MRP-space
+    distance to the closest inflated keep-out region."""
+
+    sigma_t: np.ndarray
+    sigma_t_dot: np.ndarray
+    omega_t: np.ndarray
+    status: str
+    m_a: float
+    m_r: float
+    obstacle_distance_mrp: float
+
+
+def rotation_matrix(gamma: float, axis) -> np.ndarray:
+    """Eq. 9: rotation by ``gamma`` (rad) about the unit vector ``axis``."""
+    o1, o2, o3 = axis
+    c, s = math.cos(gamma), math.sin(gamma)
+    k = 1.0 - c
+    return np.array([
+        [o1 * o1 * k + c, o1 * o2 * k - o3 * s, o1 * o3 * k + o2 * s],
+        [o2 * o1 * k + o3 * s, o2 * o2 * k + c, o2 * o3 * k - o1 * s],
+        [o3 * o1 * k - o2 * s, o3 * o2 * k + o1 * s, o3 * o3 * k + c],
+    ])
+
+
+def _rotate(v, axis, cos_g, sin_g):
+    """Rodrigues rotation of ``v`` about unit ``axis`` (same as ``rotation_matrix @ v``)."""
+    vx, vy, vz = v
+    ox, oy, oz = axis
+    dot = ox * vx + oy * vy + oz * vz
+    cx, cy, cz = oy * vz - oz * vy, oz * vx - ox * vz, ox * vy - oy * vx
+    k = (1.0 - cos_g) * dot
+    return (vx * cos_g + cx * sin_g + ox * k,
+            vy * cos_g + cy * sin_g + oy * k,
+            vz * cos_g + cz * sin_g + oz * k)
+
+
+def _unit_or_none(x, y, z, eps=1e-9):
+    n = math.sqrt(x * x + y * y + z * z)
+    if n < eps:
+        return None
+    return (x / n, y / n, z / n)
+
+
+def _any_perpendicular(v):
+    x, y, z = v
+    if abs(x) < 0.9:
+        return _unit_or_none(0.0, z, -y)  # v x e1
+    return _unit_or_none(-z, 0.0, x)      # v x e2
+
+
+class FepfPlanner:
+    """Stateful FEPF guidance: call :meth:`step` once per ``dt``.
+
+    Parameters
+    ----------
+    geometry : keep-out geometry whose ``inflation_deg`` is the planner's safety buffer.
+    sigma_0, sigma_goal : start and goal MRPs (``|sigma| <= 1``).
+    dt_s : step, s.
+    config : a :class:`attitude_core.scenario.PlannerConfig` (or any object with the
+        same attributes).
+    scenario_dir : directory for resolving FIS paths that contain a ``/``.
+    """
+
+    def __init__(self, geometry: KeepOutGeometry, sigma_0, sigma_goal, dt_s: float,
+                 config, scenario_dir: str | None = None) -> None:
+        self.geometry = geometry
+        self.dt = float(dt_s)
+        self.cfg = config
+        self.goal = tuple(float(x) for x in sigma_goal)
+        self.fis_a = load_fis(_resolve(config.fis_attractive, scenario_dir))
+        self.fis_r = load_fis(_resolve(config.fis_repulsive, scenario_dir))
+        known = {"goal_distance", "obstacle_distance", "approach"}
+        for fis in (self.fis_a, self.fis_r):
+            unknown = set(fis.input_names) - known
+            if unknown:
+                raise ValueError(
+                    f"FIS '{fis.name}': unknown input(s) {sorted(unknown)}; "
+                    f"the planner provides {sorted(known)}")
+        self._table_a = self.fis_a.table()
+        self._table_r = self.fis_r.table()
+        self._inputs_a = tuple(self.fis_a.input_names)
+        self._inputs_r = tuple(self.fis_r.input_names)
+        self._gamma = math.radians(config.gamma_deg)
+        self._cos_g, self._sin_g = math.cos(self._gamma), math.sin(self._gamma)
+        self._paper_axis = config.direction_axis == "paper"
+        self.reset(sigma_0)
+
+    def reset(self, sigma) -> None:
+        """Restart from attitude ``sigma`` (e.g. the measured attitude after a restart)."""
+        self.sigma_t = tuple(float(x) for x in sigma)
+        self._rate = (0.0, 0.0, 0.0)
+        self.status = PlannerStatus.TRACKING
+        self._best_goal_distance = math.inf
+        self._since_progress = 0.0
+        self.last_obstacle_distance = math.nan
+
+    # ------------------------------------------------------------------------------
+
+    def step(self) -> PlannerOutput:
+        """Return the target for the current step, then advance ``sigma_t`` by ``dt``."""
+        sx, sy, sz = self.sigma_t
+        gx, gy, gz = self.goal
+        ex, ey, ez = gx - sx, gy - sy, gz - sz
+        d_goal = math.sqrt(ex * ex + ey * ey + ez * ez)
+        cfg = self.cfg
+        if self.status == PlannerStatus.ARRIVED or (
+                self.status == PlannerStatus.TRACKING and d_goal <= cfg.goal_tolerance_mrp):
+            self.status = PlannerStatus.ARRIVED
+            self.sigma_t = self.goal
+            self._rate = (0.0, 0.0, 0.0)
+            return self._output(self.goal, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance)
+        if self.status == PlannerStatus.STUCK:
+            return self._output(self.sigma_t, (0.0, 0.0, 0.0), 0.0, 0.0,
+                                self.last_obstacle_distance)
+
+        a_hat = (ex / d_goal, ey / d_goal, ez / d_goal)
+        query = self.geometry.closest_obstacle(self.sigma_t)
+        d_obs = query.distance
+        self.last_obstacle_distance = d_obs
+        c_hat = (float(query.direction[0]), float(query.direction[1]), float(query.direction[2]))
+        ac = a_hat[0] * c_hat[0] + a_hat[1] * c_hat[1] + a_hat[2] * c_hat[2]
+        inputs = {
+            "goal_distance": min(d_goal, 1.0),
+            "obstacle_distance": min(max(d_obs / cfg.influence_distance_mrp, 0.0), 1.0),
+            "approach": 0.5 * (1.0 + ac),
+        }
+        m_a = cfg.max_attractive_rate_mrp_s * self._table_a(*(inputs[n] for n in self._inputs_a))
+        m_r = 0.0
+        visibility = _goal_occlusion(d_goal, d_obs)
+        if d_obs < cfg.influence_distance_mrp and visibility > 0.0:
+            m_r = visibility * cfg.max_repulsive_rate_mrp_s * self._table_r(
+                *(inputs[n] for n in self._inputs_r))
+
+        vx, vy, vz = m_a * a_hat[0], m_a * a_hat[1], m_a * a_hat[2]
+        if m_r > 0.0:
+            r_hat = self._repulsive_direction(a_hat, c_hat, ac)
+            vx, vy, vz = vx + m_r * r_hat[0], vy + m_r * r_hat[1], vz + m_r * r_hat[2]
+        vx, vy, vz = self._shape_rate(vx, vy, vz, d_goal)
+
+        # Safety: the step stays inside the obstacle-free ball around sigma_t.
+        dt = self.dt
+        step_len = dt * math.sqrt(vx * vx + vy * vy + vz * vz)
+        limit = 0.9 * d_obs
+        if step_len > limit:
+            f = max(limit, 0.0) / step_len
+            vx, vy, vz = vx * f, vy * f, vz * f
+        new = (sx + vx * dt, sy + vy * dt, sz + vz * dt)
+        for _ in range(6):
+            if self.geometry.min_margin_deg_single(new) >= 0.5 * self.geometry.inflation_deg:
+                break
+            vx, vy, vz = 0.5 * vx, 0.5 * vy, 0.5 * vz
+            new = (sx + vx * dt, sy + vy * dt, sz + vz * dt)
+        else:
+            vx = vy = vz = 0.0
+            new = self.sigma_t
+
+        # Terminal step: land exactly on the goal when the step would reach it.
+        nx, ny, nz = gx - new[0], gy - new[1], gz - new[2]
+        if nx * nx + ny * ny + nz * nz <= cfg.goal_tolerance_mrp ** 2 or (
+                cfg.terminal_time_constant_s == 0.0 and step_len >= d_goal and d_goal < d_obs):
+            new = self.goal
+
+        out = self._output(self.sigma_t, (vx, vy, vz), m_a, m_r, d_obs)
+        self._rate = (vx, vy, vz)
+        self._advance(new, d_goal)
+        return out
+
+    # ------------------------------------------------------------------------------
+
+    def _repulsive_direction(self, a_hat, c_hat, ac):
+        """Eqs. 8-10: ``sigma_r_hat = -R(gamma, o_hat) sigma_c_hat``."""
+        neg_c = (-c_hat[0], -c_hat[1], -c_hat[2])
+        if self._gamma == 0.0:
+            return neg_c
+        if self._paper_axis:
+            sx, sy, sz = self.sigma_t
+            axis = _unit_or_none(c_hat[1] * sz - c_hat[2] * sy,
+                                 c_hat[2] * sx - c_hat[0] * sz,
+                                 c_hat[0] * sy - c_hat[1] * sx)
+            if axis is None:
+                return neg_c
+        else:
+            axis = _unit_or_none(a_hat[1] * c_hat[2] - a_hat[2] * c_hat[1],
+                                 a_hat[2] * c_hat[0] - a_hat[0] * c_hat[2],
+                                 a_hat[0] * c_hat[1] - a_hat[1] * c_hat[0])
+            if axis is None:
+                if ac < 0.0:  # obstacle straight behind: nothing to steer around
+                    return neg_c
+                axis = _any_perpendicular(c_hat)  # head-on: break the symmetry
+        return _rotate(neg_c, axis, self._cos_g, self._sin_g)
+
+    def _shape_rate(self, vx, vy, vz, d_goal):
+        """Improved variant: bounded target acceleration and terminal slow-down."""
+        cfg = self.cfg
+        a_max = cfg.max_accel_mrp_s2
+        if a_max > 0.0:
+            px, py, pz = self._rate
+            dx, dy, dz = vx - px, vy - py, vz - pz
+            dv = math.sqrt(dx * dx + dy * dy + dz * dz)
+            dv_max = a_max * self.dt
+            if dv > dv_max:
+                f = dv_max / dv
+                vx, vy, vz = px + dx * f, py + dy * f, pz + dz * f
+        tau = cfg.terminal_time_constant_s
+        if tau > 0.0:
+            speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+            cap = d_goal / tau
+            if speed > cap:
+                f = cap / speed
+                vx, vy, vz = vx * f, vy * f, vz * f
+        return vx, vy, vz
+
+    def _advance(self, new, d_goal_before) -> None:
+        self.sigma_t = new
+        # Shadow switch keeps the target inside the unit ball (eq. 2).
+        s2 = new[0] ** 2 + new[1] ** 2 + new[2] ** 2
+        if s2 > 1.0:
+            self.sigma_t = (-new[0] / s2, -new[1] / s2, -new[2] / s2)
+            # d/dt(-s / s.s) = -s_dot / s.s + 2 (s . s_dot) s / (s.s)^2
+            r = self._rate
+            sr = new[0] * r[0] + new[1] * r[1] + new[2] * r[2]
+            self._rate = tuple(-r[i] / s2 + 2.0 * sr * new[i] / (s2 * s2) for i in range(3))
+        # Stuck watchdog: no new best distance to the goal for stuck_timeout_s.
+        if d_goal_before < self._best_goal_distance - 1e-6:
+            self._best_goal_distance = d_goal_before
+            self._since_progress = 0.0
+        else:
+            self._since_progress += self.dt
+            if self._since_progress >= self.cfg.stuck_timeout_s:
+                self.status = PlannerStatus.STUCK
+
+    def _output(self, sigma, rate, m_a, m_r, d_obs) -> PlannerOutput:
+        return PlannerOutput(np.array(sigma, dtype=float), np.array(rate, dtype=float),
+                             omega_from_mrp_rate_single(sigma, rate), self.status, float(m_a),
+                             float(m_r), float(d_obs))
+
+
+def _goal_occlusion(d_goal: float, d_obs: float) -> float:
+    """Weight of the repulsive term: 0 when the goal is closer than every obstacle.
+
+    If ``d_goal <= d_obs`` the straight segment to the goal lies inside the
+    obstacle-free ball around ``sigma``, so repulsion can only stop the target short of
+    the goal (the "goal non-reachable with obstacles nearby" trap the EPF removes).
+    The weight ramps linearly to 1 at ``d_goal = 2 d_obs`` to stay continuous.
+    """
+    if d_obs <= 0.0:
+        return 1.0
+    return min(max(d_goal / d_obs - 1.0, 0.0), 1.0)
+
+
+def _resolve(name: str, scenario_dir: str | None) -> str:
+    """FIS source: a packaged file name, or a path relative to the scenario's folder."""
+    if "/" in name and scenario_dir is not None:
+        return os.path.join(scenario_dir, name)
+    return name
