@@ -1,0 +1,140 @@
+"""Keep-out geometry (eq. 5): exact margins and the MRP-space obstacle distance query,
+checked against a brute-force dense sampling of the margin function."""
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from attitude_core.constraints import KeepOutGeometry
+
+PAPER = dict(boresights_body=[[1.0, 0.0, 0.0]], half_angles_deg=[20.0],
+             directions_inertial=[[0.0, -0.981, -0.196], [-1.0, 0.0, 0.0], [0.958, 0.0, 0.287]])
+TWO_INSTRUMENTS = dict(boresights_body=[[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]],
+                       half_angles_deg=[20.0, 12.0],
+                       directions_inertial=[[0.0, -0.981, -0.196], [-1.0, 0.0, 0.0],
+                                            [0.6, 0.64, 0.48], [0.0, 0.0, -1.0]])
+
+
+def _margin_reference(geometry, sigma):
+    """Margins straight from SciPy's rotation, independent of attitude_core.mrp."""
+    c_bn = Rotation.from_mrp(sigma).as_matrix().swapaxes(-1, -2)
+    b_n = np.einsum("...ki,nk->...ni", c_bn, geometry.boresights_body)
+    cos = np.einsum("...ni,mi->...nm", b_n, geometry.directions_inertial)
+    ang = np.degrees(np.arccos(np.clip(cos, -1, 1)))
+    return ang - geometry.half_angles_deg[:, None]
+
+
+def test_margins_match_scipy_reference():
+    g = KeepOutGeometry(**TWO_INSTRUMENTS)
+    sig = np.random.default_rng(0).uniform(-1.2, 1.2, size=(500, 3))
+    np.testing.assert_allclose(g.margins_deg(sig), _margin_reference(g, sig), atol=1e-7)
+    single = np.array([g.min_margin_deg_single(s) for s in sig])
+    np.testing.assert_allclose(single, g.min_margin_deg(sig), atol=1e-9)
+
+
+def test_margin_sign_is_eq5():
+    g = KeepOutGeometry(**PAPER)
+    sig = np.random.default_rng(1).uniform(-1, 1, size=(2000, 3))
+    c_bn = Rotation.from_mrp(sig).as_matrix().swapaxes(-1, -2)
+    lhs = np.einsum("i,nij,mj->nm", g.boresights_body[0], c_bn, g.directions_inertial)
+    violated = (lhs >= np.cos(np.radians(20.0))).any(axis=1)
+    assert violated.any() and (~violated).any()
+    np.testing.assert_array_equal(g.min_margin_deg(sig) <= 0.0, violated)
+
+
+@pytest.mark.parametrize("spec", [PAPER, TWO_INSTRUMENTS])
+def test_rim_circles_lie_on_the_region_boundary(spec):
+    g = KeepOutGeometry(**spec, inflation_deg=2.0, samples=64)
+    rng = np.random.default_rng(2)
+    idx = rng.integers(0, len(g._radii), 400)
+    t = rng.uniform(0, 2 * np.pi, 400)
+    n = g._normals[idx]
+    u = np.cross(n, [0.3, 0.5, 0.7])
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(n, u)
+    pts = g._centres[idx] + g._radii[idx, None] * (np.cos(t)[:, None] * u + np.sin(t)[:, None] * v)
+    # Every point of a rim circle has inflated margin 0 for its own pair, >= 0 overall is
+    # not required (other regions may cover it), so check the owning pair.
+    pair = idx // g.samples
+    inst, obj = np.divmod(pair, g.n_objects)
+    m = _margin_reference(g, pts)[np.arange(400), inst, obj]
+    np.testing.assert_allclose(m, 2.0, atol=1e-7)
+
+
+def _brute_force_distance(geometry, sigma, inflation):
+    """Distance from sigma to {margin <= inflation} by dense grids in MRP space."""
+    def violating(points):
+        return _margin_reference(geometry, points).reshape(len(points), -1).min(1) <= inflation
+
+    h = 0.02
+    ax = np.arange(-1.0, 1.0 + h / 2, h)
+    grid = sigma + np.stack(np.meshgrid(ax, ax, ax, indexing="ij"), -1).reshape(-1, 3)
+    dist = np.linalg.norm(grid - sigma, axis=1)
+    bad = violating(grid)
+    d_coarse = dist[bad].min()
+    cands = grid[bad & (dist <= d_coarse + 0.04)]
+    cands = cands[np.argsort(np.linalg.norm(cands - sigma, axis=1))][:300]
+    hf = 0.003
+    fax = np.arange(-0.024, 0.024 + hf / 2, hf)
+    local = np.stack(np.meshgrid(fax, fax, fax, indexing="ij"), -1).reshape(-1, 3)
+    best, best_pt = d_coarse, None
+    for c in cands:
+        pts = c + local
+        ok = violating(pts)
+        if ok.any():
+            d = np.linalg.norm(pts[ok] - sigma, axis=1)
+            if d.min() < best:
+                best, best_pt = d.min(), pts[ok][np.argmin(d)]
+    return best, best_pt
+
+
+def _free_points(g, n, rng, lo=0.0, hi=1.0):
+    out = []
+    while len(out) < n:
+        s = rng.normal(size=3)
+        s *= rng.uniform(lo, hi) / np.linalg.norm(s)
+        if g.min_margin_deg(s) > g.inflation_deg + 1.0:
+            out.append(s)
+    return out
+
+
+@pytest.mark.parametrize("spec,seed", [(PAPER, 3), (TWO_INSTRUMENTS, 4)])
+def test_obstacle_distance_matches_brute_force(spec, seed):
+    g = KeepOutGeometry(**spec, inflation_deg=2.0)
+    rng = np.random.default_rng(seed)
+    for sigma in _free_points(g, 6, rng):
+        q = g.closest_obstacle(sigma)
+        ref, _ = _brute_force_distance(g, sigma, 2.0)
+        assert q.distance > 0.0
+        assert abs(q.distance - ref) < 0.01, (sigma, q.distance, ref)
+        # The reported closest point is on the inflated boundary, at that distance.
+        assert abs(g.min_margin_deg(q.closest_point) - 2.0) < 0.05
+        assert abs(np.linalg.norm(q.closest_point - sigma) - q.distance) < 0.005
+        np.testing.assert_allclose(np.linalg.norm(q.direction), 1.0, atol=1e-12)
+
+
+def test_obstacle_seen_through_the_shadow_set():
+    """Near |sigma| = 1 the closest region can lie across the unit sphere."""
+    g = KeepOutGeometry(**PAPER, inflation_deg=0.0)
+    rng = np.random.default_rng(5)
+    checked = 0
+    for sigma in _free_points(g, 200, rng, lo=0.95, hi=0.99):
+        q = g.closest_obstacle(sigma)
+        if np.linalg.norm(q.closest_point) > 1.0 + 1e-3:
+            ref, ref_pt = _brute_force_distance(g, sigma, 0.0)
+            assert abs(q.distance - ref) < 0.01
+            # Same attitude region: the shadow of the closest point violates too.
+            assert np.linalg.norm(ref_pt) > 1.0
+            checked += 1
+            if checked == 3:
+                break
+    assert checked == 3
+
+
+def test_inside_region_is_negative():
+    g = KeepOutGeometry(**PAPER)
+    # Boresight pointed straight at object 2 ([-1,0,0]): 180 deg about b3.
+    sigma = np.array([0.0, 0.0, 1.0])
+    assert g.min_margin_deg(sigma) < 0
+    q = g.closest_obstacle(sigma)
+    assert q.distance < 0.0
