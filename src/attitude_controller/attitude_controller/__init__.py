@@ -1,0 +1,1 @@
+"""PD attitude tracking controller node package."""

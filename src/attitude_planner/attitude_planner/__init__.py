@@ -1,0 +1,1 @@
+"""FEPF attitude guidance node package."""

@@ -1,0 +1,1 @@
+"""Rigid-body spacecraft attitude simulator node package."""
