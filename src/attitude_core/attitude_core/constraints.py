@@ -50,7 +50,7 @@ def margins_deg_from_dcm(
     return np.degrees(np.arccos(cosang)) - np.asarray(half_angles_deg)[:, None]
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class ObstacleQuery:
     """Result of :meth:`KeepOutGeometry.closest_obstacle`.
 
@@ -178,6 +178,7 @@ class KeepOutGeometry:
         self._c_dot_c = np.einsum("ij,ij->i", self._centres, self._centres)
         self._c_dot_n = np.einsum("ij,ij->i", self._centres, self._normals)
         self._r2 = self._radii ** 2
+        self._two_radii = 2.0 * self._radii
         self._m = len(self._radii)
         self._circles_py = list(zip(self._centres.tolist(), self._normals.tolist(),
                                     self._radii.tolist()))
@@ -187,11 +188,20 @@ class KeepOutGeometry:
         sx, sy, sz = float(sigma[0]), float(sigma[1]), float(sigma[2])
         proj = self._stack @ np.array((sx, sy, sz))
         m = self._m
-        s2 = sx * sx + sy * sy + sz * sz
-        dd = s2 - 2.0 * proj[:m] + self._c_dot_c          # |sigma - centre|^2
-        h = proj[m:] - self._c_dot_n                       # axial offset
-        rho = np.sqrt(np.maximum(dd - h * h, 0.0))         # radial offset
-        return np.maximum(dd + self._r2 - 2.0 * self._radii * rho, 0.0)
+        dd = proj[:m]
+        dd *= -2.0
+        dd += self._c_dot_c
+        dd += sx * sx + sy * sy + sz * sz                # |sigma - centre|^2
+        h = proj[m:]
+        h -= self._c_dot_n                               # axial offset
+        h *= h
+        np.subtract(dd, h, out=h)
+        np.maximum(h, 0.0, out=h)
+        np.sqrt(h, out=h)                                # radial offset rho
+        h *= self._two_radii
+        dd += self._r2
+        dd -= h                                          # rho^2 + h^2 - 2 r rho + r^2
+        return np.maximum(dd, 0.0, out=dd)
 
     def closest_obstacle(self, sigma: np.ndarray) -> ObstacleQuery:
         """Distance and direction from ``sigma`` to the closest (inflated) keep-out region.

@@ -28,19 +28,56 @@ class RigidBody:
         self.inertia_inv = np.linalg.inv(self.inertia)
         self.sigma_bn = to_principal(np.asarray(sigma_bn, dtype=float))
         self.omega_b = np.asarray(omega_b, dtype=float).copy()
+        self._j_rows = tuple(map(tuple, self.inertia.tolist()))
+        self._ji_rows = tuple(map(tuple, self.inertia_inv.tolist()))
 
     def step(self, torque_b, dt: float) -> None:
-        """Advance by ``dt`` seconds with torque ``torque_b`` held constant (RK4)."""
-        u = np.asarray(torque_b, dtype=float)
-        j, ji = self.inertia, self.inertia_inv
-        s0, w0 = self.sigma_bn, self.omega_b
-        k1s, k1w = state_derivative(j, ji, s0, w0, u)
-        k2s, k2w = state_derivative(j, ji, s0 + 0.5 * dt * k1s, w0 + 0.5 * dt * k1w, u)
-        k3s, k3w = state_derivative(j, ji, s0 + 0.5 * dt * k2s, w0 + 0.5 * dt * k2w, u)
-        k4s, k4w = state_derivative(j, ji, s0 + dt * k3s, w0 + dt * k3w, u)
-        sigma = s0 + dt / 6.0 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s)
-        self.omega_b = w0 + dt / 6.0 * (k1w + 2.0 * k2w + 2.0 * k3w + k4w)
-        self.sigma_bn = to_principal(sigma)
+        """Advance by ``dt`` seconds with torque ``torque_b`` held constant (RK4).
+
+        Written in plain floats (one body per call is the hot path of every run);
+        :func:`state_derivative` is the array form of the same equations.
+        """
+        j = self._j_rows
+        ji = self._ji_rows
+        u = (float(torque_b[0]), float(torque_b[1]), float(torque_b[2]))
+
+        def deriv(s, w):
+            s1, s2, s3 = s
+            w1, w2, w3 = w
+            ss = s1 * s1 + s2 * s2 + s3 * s3
+            sw = s1 * w1 + s2 * w2 + s3 * w3
+            a = 1.0 - ss
+            sd = (0.25 * (a * w1 + 2.0 * (s2 * w3 - s3 * w2) + 2.0 * s1 * sw),
+                  0.25 * (a * w2 + 2.0 * (s3 * w1 - s1 * w3) + 2.0 * s2 * sw),
+                  0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw))
+            h1 = j[0][0] * w1 + j[0][1] * w2 + j[0][2] * w3
+            h2 = j[1][0] * w1 + j[1][1] * w2 + j[1][2] * w3
+            h3 = j[2][0] * w1 + j[2][1] * w2 + j[2][2] * w3
+            r1 = u[0] - (w2 * h3 - w3 * h2)
+            r2 = u[1] - (w3 * h1 - w1 * h3)
+            r3 = u[2] - (w1 * h2 - w2 * h1)
+            wd = (ji[0][0] * r1 + ji[0][1] * r2 + ji[0][2] * r3,
+                  ji[1][0] * r1 + ji[1][1] * r2 + ji[1][2] * r3,
+                  ji[2][0] * r1 + ji[2][1] * r2 + ji[2][2] * r3)
+            return sd, wd
+
+        def add(x, k, f):
+            return (x[0] + f * k[0], x[1] + f * k[1], x[2] + f * k[2])
+
+        s0 = tuple(self.sigma_bn.tolist())
+        w0 = tuple(self.omega_b.tolist())
+        k1s, k1w = deriv(s0, w0)
+        k2s, k2w = deriv(add(s0, k1s, 0.5 * dt), add(w0, k1w, 0.5 * dt))
+        k3s, k3w = deriv(add(s0, k2s, 0.5 * dt), add(w0, k2w, 0.5 * dt))
+        k4s, k4w = deriv(add(s0, k3s, dt), add(w0, k3w, dt))
+        f = dt / 6.0
+        sigma = [s0[i] + f * (k1s[i] + 2.0 * k2s[i] + 2.0 * k3s[i] + k4s[i]) for i in range(3)]
+        omega = [w0[i] + f * (k1w[i] + 2.0 * k2w[i] + 2.0 * k3w[i] + k4w[i]) for i in range(3)]
+        ss = sigma[0] ** 2 + sigma[1] ** 2 + sigma[2] ** 2
+        if ss > 1.0:  # shadow switch, eq. 2
+            sigma = [-x / ss for x in sigma]
+        self.sigma_bn = np.array(sigma)
+        self.omega_b = np.array(omega)
 
     def kinetic_energy(self) -> float:
         """Rotational kinetic energy ``omega^T J omega / 2``, J."""

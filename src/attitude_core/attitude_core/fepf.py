@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .constraints import KeepOutGeometry
-from .fuzzy import load_fis
+from .fuzzy import load_fis, lookup_table
 from .mrp import omega_from_mrp_rate_single
 
 __all__ = ["PlannerStatus", "PlannerOutput", "FepfPlanner", "rotation_matrix"]
@@ -51,7 +51,7 @@ class PlannerStatus:
     INFEASIBLE = "infeasible"
 
 
-@dataclass(frozen=True)
+@dataclass(slots=True)
 class PlannerOutput:
     """Target for one step: ``sigma_t`` (MRP), ``sigma_t_dot`` (1/s), ``omega_t``
     (rad/s, target-frame axes), the status, the FIS magnitudes and the MRP-space
@@ -132,8 +132,8 @@ class FepfPlanner:
                 raise ValueError(
                     f"FIS '{fis.name}': unknown input(s) {sorted(unknown)}; "
                     f"the planner provides {sorted(known)}")
-        self._table_a = self.fis_a.table()
-        self._table_r = self.fis_r.table()
+        self._table_a = lookup_table(self.fis_a)
+        self._table_r = lookup_table(self.fis_r)
         self._inputs_a = tuple(self.fis_a.input_names)
         self._inputs_r = tuple(self.fis_r.input_names)
         self._gamma = math.radians(config.gamma_deg)

@@ -1,0 +1,60 @@
+"""Benchmark of the ROS-free core: planner step time and offline Case 1 wall time.
+
+Run: .venv/bin/python bench/core_bench.py [--repeats N]
+Prints figures and their ratio to the aims (planner step median <= 50 us,
+offline Case 1 <= 0.5 s wall). Not a test: timings depend on the machine.
+"""
+
+import argparse
+import os
+import statistics
+import time
+
+import numpy as np
+
+from attitude_core.offline import build_planner, run_closed_loop
+from attitude_core.scenario import load_scenario
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+AIM_STEP_US = 50.0
+AIM_CASE1_WALL_S = 0.5
+
+
+def planner_step_times(scenario, repeats):
+    samples = []
+    for _ in range(repeats):
+        planner = build_planner(scenario)
+        for _ in range(scenario.n_steps):
+            t0 = time.perf_counter_ns()
+            out = planner.step()
+            samples.append(time.perf_counter_ns() - t0)
+            if out.status != "tracking":
+                break
+    return np.array(samples) / 1e3
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--repeats", type=int, default=5)
+    args = parser.parse_args()
+    case1 = load_scenario(f"{ROOT}/scenarios/case1.yaml")
+    print(f"core benchmark, {os.cpu_count()} cpu(s), numpy {np.__version__}")
+    print("planner step (tracking phase only; arrived steps are trivially cheap)")
+    for name in ("case1", "case2", "case1_paper"):
+        us = planner_step_times(load_scenario(f"{ROOT}/scenarios/{name}.yaml"), args.repeats)
+        med, p99 = np.median(us), np.percentile(us, 99)
+        print(f"  {name:12s} n={len(us):5d}  median {med:6.1f} us  p99 {p99:6.1f} us  "
+              f"median/aim {med / AIM_STEP_US:.2f}")
+    walls = []
+    for _ in range(args.repeats):
+        t0 = time.perf_counter()
+        run_closed_loop(case1)
+        walls.append(time.perf_counter() - t0)
+    wall = statistics.median(walls)
+    print(f"offline case1: {case1.n_steps} steps, {case1.sim_time_s:.0f} s simulated, "
+          f"wall median {wall:.3f} s (min {min(walls):.3f})  "
+          f"sim/wall {case1.sim_time_s / wall:.0f}x  wall/aim {wall / AIM_CASE1_WALL_S:.2f}")
+
+
+if __name__ == "__main__":
+    main()
