@@ -39,10 +39,9 @@ def test_every_scenario_reaches_goal_without_violation(summaries, name):
 
 
 @pytest.mark.parametrize("case", ["case1", "case2"])
-def test_paper_cases_beat_paper_arrival_time(summaries, case):
-    for name in (case, f"{case}_paper"):
-        s = summaries[name][1]
-        assert s["t_reach_s"] <= PAPER_T_REACH_S[case], (name, s["t_reach_s"])
+def test_default_planner_beats_paper_arrival_time(summaries, case):
+    s = summaries[case][1]
+    assert s["t_reach_s"] <= PAPER_T_REACH_S[case], s["t_reach_s"]
 
 
 @pytest.mark.parametrize("case", ["case1", "case2"])
@@ -79,7 +78,7 @@ def test_cli_writes_summary_and_timeseries(tmp_path):
                 "final_rate_rad_s", "peak_torque_nm", "planner_step_us_median"):
         assert key in summary
     table = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
-    assert len(table) == 721
+    assert len(table) == 1501  # 150 s at 0.1 s, both ends
     assert abs(table["min_margin_deg"].min() - summary["min_margin_deg"]) < 1.0
     assert [p.name for p in tmp_path.iterdir()] == ["run"]  # no temporary left behind
 
