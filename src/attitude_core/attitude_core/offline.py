@@ -108,15 +108,18 @@ def summarize(run: RunResult) -> dict:
     arrived = np.flatnonzero(run.planner_status == STATUS_CODES[PlannerStatus.ARRIVED])
     stuck = bool(np.any(run.planner_status == STATUS_CODES[PlannerStatus.STUCK]))
     per_pair = geometry.margins_deg(run.sigma_bn).min(axis=0)
+    # Planner cost while it is working (arrived/stuck steps return at once).
+    tracking = run.planner_status == STATUS_CODES[PlannerStatus.TRACKING]
+    step_s = run.planner_step_s[tracking] if tracking.any() else run.planner_step_s
     return {
         "scenario": sc.name,
         "planner_variant": sc.planner.variant,
         "reached": bool(reached),
-        "t_reach_s": t_reach,
-        "t_plan_arrival_s": float(run.t[arrived[0]]) if len(arrived) else None,
+        "t_reach_s": None if t_reach is None else round(t_reach, 9),
+        "t_plan_arrival_s": round(float(run.t[arrived[0]]), 9) if len(arrived) else None,
         "planner_stuck": stuck,
         "min_margin_deg": min_margin,
-        "t_min_margin_s": t_min,
+        "t_min_margin_s": round(t_min, 9),
         "min_margin_deg_per_pair": {
             f"{sc.instrument_names[i]}/{sc.bright_object_names[j]}": float(per_pair[i, j])
             for i in range(len(sc.instrument_names)) for j in range(len(sc.bright_object_names))
@@ -127,8 +130,8 @@ def summarize(run: RunResult) -> dict:
         "final_rate_rad_s": float(np.linalg.norm(run.omega_b[-1])),
         "peak_rate_rad_s": float(np.max(np.linalg.norm(run.omega_b, axis=1))),
         "peak_torque_nm": float(np.max(np.linalg.norm(run.torque_b, axis=1))),
-        "planner_step_us_median": float(np.median(run.planner_step_s) * 1e6),
-        "planner_step_us_p99": float(np.percentile(run.planner_step_s, 99) * 1e6),
+        "planner_step_us_median": float(np.median(step_s) * 1e6),
+        "planner_step_us_p99": float(np.percentile(step_s, 99) * 1e6),
         "sim_time_s": sc.sim_time_s,
         "dt_s": sc.dt_s,
         "wall_time_s": run.wall_time_s,
