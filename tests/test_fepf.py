@@ -106,3 +106,22 @@ def test_reset_resumes_from_given_attitude():
     out = planner.step()
     np.testing.assert_allclose(out.sigma_t, here)
     assert out.status == PlannerStatus.TRACKING
+
+
+def test_restart_inside_safety_buffer_backs_out_and_arrives():
+    sc = load_scenario("scenarios/case1.yaml")
+    planner = build_planner(sc)
+    exact = sc.keep_out()
+    # A measured attitude 1 deg outside a cone: inside the planner's 2 deg buffer.
+    rng = np.random.default_rng(7)
+    while True:
+        s = rng.uniform(-0.6, 0.6, 3)
+        if 0.8 < exact.min_margin_deg(s) < 1.2:
+            break
+    planner.reset(s)
+    assert planner.geometry.closest_obstacle(s).distance < 0.0
+    path, statuses = _run(planner, 3000)
+    assert statuses[-1] == PlannerStatus.ARRIVED
+    # The margin never drops below where it started, and the buffer is regained.
+    assert _segment_min_margin(exact, path) >= exact.min_margin_deg(s) - 1e-9
+    assert exact.min_margin_deg(path[len(path) // 2:]).min() >= 1.0

@@ -193,16 +193,22 @@ class FepfPlanner:
             vx, vy, vz = vx + m_r * r_hat[0], vy + m_r * r_hat[1], vz + m_r * r_hat[2]
         vx, vy, vz = self._shape_rate(vx, vy, vz, d_goal)
 
-        # Safety: the step stays inside the obstacle-free ball around sigma_t.
+        # Safety: the step stays inside the obstacle-free ball around sigma_t. Inside the
+        # widened buffer (a restart from a measured attitude can land there) there is
+        # no such ball: then a step is accepted only if it does not reduce the margin.
         dt = self.dt
         step_len = dt * math.sqrt(vx * vx + vy * vy + vz * vz)
-        limit = 0.9 * d_obs
-        if step_len > limit:
-            f = max(limit, 0.0) / step_len
-            vx, vy, vz = vx * f, vy * f, vz * f
+        floor = 0.5 * self.geometry.inflation_deg
+        if d_obs > 0.0:
+            limit = 0.9 * d_obs
+            if step_len > limit:
+                f = limit / step_len
+                vx, vy, vz = vx * f, vy * f, vz * f
+        else:
+            floor = min(floor, self.geometry.min_margin_deg_single(self.sigma_t))
         new = (sx + vx * dt, sy + vy * dt, sz + vz * dt)
         for _ in range(6):
-            if self.geometry.min_margin_deg_single(new) >= 0.5 * self.geometry.inflation_deg:
+            if self.geometry.min_margin_deg_single(new) >= floor:
                 break
             vx, vy, vz = 0.5 * vx, 0.5 * vy, 0.5 * vz
             new = (sx + vx * dt, sy + vy * dt, sz + vz * dt)
