@@ -47,6 +47,7 @@ def test_b_transpose_b_identity(sigma):
 def test_rate_round_trip(sigma, omega):
     sd = mrp.mrp_rate(sigma, omega)
     np.testing.assert_allclose(sd, 0.25 * mrp.b_matrix(sigma) @ omega, atol=1e-12)
+    np.testing.assert_allclose(mrp.mrp_rate_single(tuple(sigma), tuple(omega)), sd, atol=1e-12)
     np.testing.assert_allclose(mrp.omega_from_mrp_rate(sigma, sd), omega, atol=1e-9)
     np.testing.assert_allclose(mrp.omega_from_mrp_rate_single(sigma, sd), omega, atol=1e-9)
 

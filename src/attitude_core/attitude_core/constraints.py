@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .mrp import dcm_from_mrp, quat_mul_sf
+from .mrp import dcm_from_mrp, dcm_rows_from_mrp, quat_mul_sf
 
 __all__ = ["KeepOutGeometry", "ObstacleQuery", "margins_deg_from_dcm"]
 
@@ -34,6 +34,14 @@ __all__ = ["KeepOutGeometry", "ObstacleQuery", "margins_deg_from_dcm"]
 def _unit_rows(v: np.ndarray) -> np.ndarray:
     v = np.atleast_2d(np.asarray(v, dtype=float))
     return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def _unit_perpendicular(v: np.ndarray) -> np.ndarray:
+    """A unit vector normal to the unit vector ``v``."""
+    p = np.cross(v, [1.0, 0.0, 0.0])
+    if np.linalg.norm(p) < 0.5:
+        p = np.cross(v, [0.0, 1.0, 0.0])
+    return p / np.linalg.norm(p)
 
 
 def margins_deg_from_dcm(
@@ -122,14 +130,7 @@ class KeepOutGeometry:
 
         Hot-path form of :meth:`min_margin_deg` in plain floats (no array overhead).
         """
-        s1, s2, s3 = float(sigma_bn[0]), float(sigma_bn[1]), float(sigma_bn[2])
-        ss = s1 * s1 + s2 * s2 + s3 * s3
-        d = (1.0 + ss) ** 2
-        k8, k4 = 8.0 / d, 4.0 * (1.0 - ss) / d
-        # Rows of C_BN (see mrp.dcm_from_mrp_single); b = C^T s = sum_r s_r C[r, :].
-        r0 = (1.0 + k8 * (s1 * s1 - ss), k8 * s1 * s2 + k4 * s3, k8 * s1 * s3 - k4 * s2)
-        r1 = (k8 * s2 * s1 - k4 * s3, 1.0 + k8 * (s2 * s2 - ss), k8 * s2 * s3 + k4 * s1)
-        r2 = (k8 * s3 * s1 + k4 * s2, k8 * s3 * s2 - k4 * s1, 1.0 + k8 * (s3 * s3 - ss))
+        r0, r1, r2 = dcm_rows_from_mrp(sigma_bn)  # b = C^T s = sum_r s_r C[r, :]
         best = math.inf
         for (a, b, c), beta in self._instruments_py:
             bx = a * r0[0] + b * r1[0] + c * r2[0]
@@ -141,13 +142,6 @@ class KeepOutGeometry:
                 best = m
         return best
 
-    def min_margin_deg_from_dcm(self, c_bn: np.ndarray) -> np.ndarray:
-        """Smallest exact margin over all pairs for DCM(s) ``C_BN``, degrees."""
-        m = margins_deg_from_dcm(
-            c_bn, self.boresights_body, self.half_angles_deg, self.directions_inertial
-        )
-        return m.reshape(m.shape[:-2] + (-1,)).min(axis=-1)
-
     # --- MRP-space obstacles --------------------------------------------------
 
     def _build_rim_circles(self) -> None:
@@ -158,10 +152,7 @@ class KeepOutGeometry:
         for i, s in enumerate(self.boresights_body):
             beta = np.radians(self.half_angles_deg[i] + self.inflation_deg)
             for c in self.directions_inertial:
-                e1 = np.cross(c, [1.0, 0.0, 0.0])
-                if np.linalg.norm(e1) < 0.5:
-                    e1 = np.cross(c, [0.0, 1.0, 0.0])
-                e1 /= np.linalg.norm(e1)
+                e1 = _unit_perpendicular(c)
                 e2 = np.cross(c, e1)
                 # Boresight directions on the cone rim, inertial axes: (k, 3)
                 b = (np.cos(beta) * c[None, :]
@@ -266,10 +257,7 @@ def _fiber_circles(s_body: np.ndarray, b_inertial: np.ndarray):
     q_base = np.concatenate([w[:, None], v], axis=1)
     anti = w < 1e-9  # b = -s: rotate by pi about any axis normal to s
     if np.any(anti):
-        perp = np.cross(s_body, [1.0, 0.0, 0.0])
-        if np.linalg.norm(perp) < 0.5:
-            perp = np.cross(s_body, [0.0, 1.0, 0.0])
-        q_base[anti] = np.concatenate([[0.0], perp / np.linalg.norm(perp)])
+        q_base[anti] = np.concatenate([[0.0], _unit_perpendicular(s_body)])
     q_base /= np.linalg.norm(q_base, axis=1, keepdims=True)
     # Three points on each fibre great circle, q(psi) = q_rot(s, psi) (x) q_base,
     # psi spread over [0, 4 pi); pick the offset keeping them far from q0 = -1

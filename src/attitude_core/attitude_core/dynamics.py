@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .mrp import mrp_rate, to_principal
+from .mrp import mrp_rate, mrp_rate_single, to_principal
 
 __all__ = ["RigidBody", "state_derivative"]
 
@@ -42,14 +42,7 @@ class RigidBody:
         u = (float(torque_b[0]), float(torque_b[1]), float(torque_b[2]))
 
         def deriv(s, w):
-            s1, s2, s3 = s
             w1, w2, w3 = w
-            ss = s1 * s1 + s2 * s2 + s3 * s3
-            sw = s1 * w1 + s2 * w2 + s3 * w3
-            a = 1.0 - ss
-            sd = (0.25 * (a * w1 + 2.0 * (s2 * w3 - s3 * w2) + 2.0 * s1 * sw),
-                  0.25 * (a * w2 + 2.0 * (s3 * w1 - s1 * w3) + 2.0 * s2 * sw),
-                  0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw))
             h1 = j[0][0] * w1 + j[0][1] * w2 + j[0][2] * w3
             h2 = j[1][0] * w1 + j[1][1] * w2 + j[1][2] * w3
             h3 = j[2][0] * w1 + j[2][1] * w2 + j[2][2] * w3
@@ -59,7 +52,7 @@ class RigidBody:
             wd = (ji[0][0] * r1 + ji[0][1] * r2 + ji[0][2] * r3,
                   ji[1][0] * r1 + ji[1][1] * r2 + ji[1][2] * r3,
                   ji[2][0] * r1 + ji[2][1] * r2 + ji[2][2] * r3)
-            return sd, wd
+            return mrp_rate_single(s, w), wd
 
         def add(x, k, f):
             return (x[0] + f * k[0], x[1] + f * k[1], x[2] + f * k[2])

@@ -32,7 +32,7 @@ def dense_min_margin_deg(geometry: KeepOutGeometry, t: np.ndarray, sigma_bn: np.
 
     Between samples the attitude is a cubic Hermite interpolant of the quaternion and
     its rate (``q_dot`` from ``omega``, so it is exact to O(dt^4)), renormalised.
-    Returns ``(min_margin_deg, time_of_min_s, margins_at_samples_deg (N,))``.
+    Returns ``(min_margin_deg, time_of_min_s)``.
     """
     q = quat_sf_from_mrp(np.asarray(sigma_bn, dtype=float))
     # Make the quaternion sign continuous (shadow switches flip it).
@@ -50,8 +50,7 @@ def dense_min_margin_deg(geometry: KeepOutGeometry, t: np.ndarray, sigma_bn: np.
     k = int(np.argmin(margins))
     i, j = divmod(k, substeps + 1)
     t_min = float(t[i] + (t[i + 1] - t[i]) * j / substeps)
-    at_samples = geometry.min_margin_deg(np.asarray(sigma_bn, dtype=float))
-    return float(margins.flat[k]), t_min, at_samples
+    return float(margins.flat[k]), t_min
 
 
 def path_length_mrp(sigma: np.ndarray) -> float:

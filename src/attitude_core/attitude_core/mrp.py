@@ -21,6 +21,8 @@ __all__ = [
     "skew",
     "dcm_from_mrp",
     "dcm_from_mrp_single",
+    "dcm_rows_from_mrp",
+    "mrp_rate_single",
     "shadow",
     "to_principal",
     "b_matrix",
@@ -60,20 +62,26 @@ def dcm_from_mrp(sigma: np.ndarray) -> np.ndarray:
     return eye + (8.0 * sx @ sx - 4.0 * (1.0 - s2) * sx) / (1.0 + s2) ** 2
 
 
-def dcm_from_mrp_single(sigma) -> np.ndarray:
-    """``C_BN`` for one MRP set, written with scalars for the per-step hot path.
+def dcm_rows_from_mrp(sigma):
+    """Rows of ``C_BN`` for one MRP set as plain float tuples (per-step hot paths).
 
-    Same formula as :func:`dcm_from_mrp`: ``C = I + (8 (s s^T - s.s I) - 4 (1 - s.s) [s x]) / (1 + s.s)^2``.
+    Same formula as :func:`dcm_from_mrp`:
+    ``C = I + (8 (s s^T - s.s I) - 4 (1 - s.s) [s x]) / (1 + s.s)^2``.
     """
     s1, s2, s3 = float(sigma[0]), float(sigma[1]), float(sigma[2])
     ss = s1 * s1 + s2 * s2 + s3 * s3
     k8 = 8.0 / (1.0 + ss) ** 2
     k4 = 4.0 * (1.0 - ss) / (1.0 + ss) ** 2
-    return np.array([
-        [1.0 + k8 * (s1 * s1 - ss), k8 * s1 * s2 + k4 * s3, k8 * s1 * s3 - k4 * s2],
-        [k8 * s2 * s1 - k4 * s3, 1.0 + k8 * (s2 * s2 - ss), k8 * s2 * s3 + k4 * s1],
-        [k8 * s3 * s1 + k4 * s2, k8 * s3 * s2 - k4 * s1, 1.0 + k8 * (s3 * s3 - ss)],
-    ])
+    return (
+        (1.0 + k8 * (s1 * s1 - ss), k8 * s1 * s2 + k4 * s3, k8 * s1 * s3 - k4 * s2),
+        (k8 * s2 * s1 - k4 * s3, 1.0 + k8 * (s2 * s2 - ss), k8 * s2 * s3 + k4 * s1),
+        (k8 * s3 * s1 + k4 * s2, k8 * s3 * s2 - k4 * s1, 1.0 + k8 * (s3 * s3 - ss)),
+    )
+
+
+def dcm_from_mrp_single(sigma) -> np.ndarray:
+    """``C_BN`` for one MRP set as a (3, 3) array (see :func:`dcm_rows_from_mrp`)."""
+    return np.array(dcm_rows_from_mrp(sigma))
 
 
 def shadow(sigma: np.ndarray) -> np.ndarray:
@@ -121,6 +129,18 @@ def omega_from_mrp_rate(sigma: np.ndarray, sigma_dot: np.ndarray) -> np.ndarray:
     ssd = np.einsum("...i,...i->...", sigma, sd)[..., None]
     bt_sd = (1.0 - s2) * sd - 2.0 * np.cross(sigma, sd) + 2.0 * sigma * ssd
     return 4.0 * bt_sd / (1.0 + s2) ** 2
+
+
+def mrp_rate_single(sigma, omega):
+    """Eq. 3 for one MRP set in plain floats: ``sigma_dot = B(sigma) omega / 4`` (tuple)."""
+    s1, s2, s3 = sigma
+    w1, w2, w3 = omega
+    ss = s1 * s1 + s2 * s2 + s3 * s3
+    sw = s1 * w1 + s2 * w2 + s3 * w3
+    a = 1.0 - ss
+    return (0.25 * (a * w1 + 2.0 * (s2 * w3 - s3 * w2) + 2.0 * s1 * sw),
+            0.25 * (a * w2 + 2.0 * (s3 * w1 - s1 * w3) + 2.0 * s2 * sw),
+            0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw))
 
 
 def omega_from_mrp_rate_single(sigma, sigma_dot) -> np.ndarray:

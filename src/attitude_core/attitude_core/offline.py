@@ -101,7 +101,7 @@ def summarize(run: RunResult) -> dict:
     """Summary figures of a run (the fields of ``summary.json``)."""
     sc = run.scenario
     geometry = sc.keep_out()
-    min_margin, t_min, _ = dense_min_margin_deg(geometry, run.t, run.sigma_bn, run.omega_b)
+    min_margin, t_min = dense_min_margin_deg(geometry, run.t, run.sigma_bn, run.omega_b)
     reached, t_reach, err_deg = arrival_time(
         run.t, run.sigma_bn, run.omega_b, sc.desired_mrp,
         sc.arrival.attitude_tol_deg, sc.arrival.rate_tol_rad_s)
