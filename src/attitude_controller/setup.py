@@ -18,6 +18,8 @@ setup(
     description='PD attitude tracking controller node',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'pd_controller = attitude_controller.controller_node:main',
+        ],
     },
 )

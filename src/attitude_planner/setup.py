@@ -18,6 +18,8 @@ setup(
     description='FEPF attitude guidance node: publishes the constraint-compliant target MRP and rate',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'fepf_planner = attitude_planner.planner_node:main',
+        ],
     },
 )

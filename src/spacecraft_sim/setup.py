@@ -18,6 +18,8 @@ setup(
     description='Rigid-body spacecraft attitude simulator node',
     license='Apache-2.0',
     entry_points={
-        'console_scripts': [],
+        'console_scripts': [
+            'rigid_body_sim = spacecraft_sim.sim_node:main',
+        ],
     },
 )

@@ -63,6 +63,8 @@ __all__ = [
     "load_scenario",
     "parse_scenario",
     "flatten_parameters",
+    "ParameterSpec",
+    "parameter_specs",
 ]
 
 _NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
@@ -238,6 +240,74 @@ _INSTRUMENT_FIELDS = (
 )
 _OBJECT_FIELDS = (_Field("direction_inertial", "unit3"),)
 _GROUPS = (("instruments", _INSTRUMENT_FIELDS), ("bright_objects", _OBJECT_FIELDS))
+
+
+# --- the same table as ROS 2 parameter declarations ---------------------------------------
+
+class ParameterSpec(NamedTuple):
+    """One scenario key as a ROS 2 parameter: what a node declares up front."""
+
+    name: str                       # dotted parameter name
+    ros_type: str                   # double, double_array, integer, string, string_array
+    required: bool                  # False: the loader supplies a default
+    description: str
+    value_range: tuple[float, float] | None  # closed bounds for scalars (exact rule in text)
+
+
+_ROS_TYPES = {"str": "string", "name": "string", "names": "string_array", "int": "integer",
+              "float": "double", "vec3": "double_array", "unit3": "double_array",
+              "mrp": "double_array", "matrix3": "double_array", "data_file": "string"}
+
+_DESCRIPTIONS = {
+    "scenario_name": "name used in outputs ([A-Za-z][A-Za-z0-9_]*)",
+    "sim_time_s": "simulated time, s (> 0, >= dt_s)",
+    "dt_s": "guidance, control and integration step, s (> 0)",
+    "inertia_kgm2": "inertia J about the body axes, kg m^2, row-major 3x3, SPD (eq. 4)",
+    "initial_mrp": "initial attitude sigma_BN(0), MRP (|sigma| > 1 taken as its shadow set)",
+    "desired_mrp": "desired attitude sigma_d = sigma_DN, MRP",
+    "initial_rate_rad_s": "initial body rate omega_BN(0), body axes, rad/s",
+    "controller.kp_over_j": "proportional gain Kp = kp_over_j J, 1/s^2 (> 0; paper 5.5)",
+    "controller.kd_over_j": "derivative gain Kd = kd_over_j J, 1/s (> 0; paper 3.1)",
+    "planner.variant": "FEPF variant whose defaults apply: improved or paper",
+    "planner.direction_axis": "repulsive rotation axis: goal_plane or paper (eq. 9)",
+    "planner.gamma_deg": "repulsive rotation angle gamma, deg ([0, 180))",
+    "planner.fis_attractive": "attractive FIS data (packaged name or path)",
+    "planner.fis_repulsive": "repulsive FIS data (packaged name or path)",
+    "planner.max_attractive_rate_mrp_s": "attractive speed scale, MRP/s (> 0)",
+    "planner.max_repulsive_rate_mrp_s": "repulsive speed scale, MRP/s (>= 0)",
+    "planner.influence_distance_mrp": "obstacle influence distance, MRP (> 0)",
+    "planner.safety_margin_deg": "buffer added to every cone for planning, deg ([0, 45))",
+    "planner.max_accel_mrp_s2": "target acceleration bound, MRP/s^2 (>= 0; 0: none)",
+    "planner.terminal_time_constant_s": "terminal rate time constant, s (>= 0; 0: none)",
+    "planner.goal_tolerance_mrp": "goal capture distance, MRP (> 0)",
+    "planner.stuck_timeout_s": "no-progress time before status stuck, s (> 0)",
+    "planner.obstacle_samples": "rim samples per keep-out cone (>= 16)",
+    "arrival.attitude_tol_deg": "arrival: attitude error bound, deg (> 0)",
+    "arrival.rate_tol_rad_s": "arrival: body rate bound, rad/s (> 0)",
+    "boresight_body": "instrument boresight s_i, body axes, unit vector",
+    "half_angle_deg": "keep-out half-angle beta_i, deg ((0, 90))",
+    "direction_inertial": "bright-object direction c_j, inertial axes, unit vector",
+}
+_RANGES = {"planner.gamma_deg": (0.0, 180.0), "planner.safety_margin_deg": (0.0, 45.0),
+           "half_angle_deg": (0.0, 90.0)}
+
+
+def parameter_specs(instrument_names=(), bright_object_names=()) -> list[ParameterSpec]:
+    """Every scenario key as a :class:`ParameterSpec`, per-name keys for the given names.
+
+    The name lists themselves (``instruments.names``, ``bright_objects.names``) come
+    first; a node declares them, reads them, then declares the rest.
+    """
+    def spec(field: _Field, name: str, short: str) -> ParameterSpec:
+        return ParameterSpec(name, _ROS_TYPES[field.kind], field.default is None,
+                             _DESCRIPTIONS[short], _RANGES.get(short))
+
+    specs = [ParameterSpec(f"{g}.names", "string_array", True, f"names of the {g}", None)
+             for g, _ in _GROUPS]
+    specs += [spec(f, f.key, f.key) for f in _FIELDS]
+    for (group, fields), names in zip(_GROUPS, (instrument_names, bright_object_names)):
+        specs += [spec(f, f"{group}.{n}.{f.key}", f.key) for n in names for f in fields]
+    return specs
 
 
 # --- converters: YAML value -> typed value, raising _Bad(reason) -------------------------

@@ -1,0 +1,1 @@
+"""Recorder node and launch file of the attitude stack."""

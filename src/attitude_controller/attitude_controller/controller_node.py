@@ -1,0 +1,101 @@
+"""PD attitude controller node (``ros2 run attitude_controller pd_controller``).
+
+For each stamp it waits for the four inputs of that stamp, ``/spacecraft/attitude``,
+``/spacecraft/angular_velocity``, ``/planner/target_mrp`` and ``/planner/target_rate``,
+then publishes ``/controller/torque`` (body axes, N m) with the same stamp:
+``u = -Kp sigma_B/R - Kd (omega_B - C_BR omega_t)`` (paper eq. 11, ``Kp = kp_over_j J``,
+``Kd = kd_over_j J``). Matching by stamp makes the answer the same in lockstep, in real
+time and behind a hardware bridge. Messages with non-finite values or an unusable
+quaternion are rejected, logged and counted, never turned into torque.
+"""
+
+from __future__ import annotations
+
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+from rclpy.node import Node
+
+from attitude_core.control import PdGains, pd_torque
+from attitude_ros import contract as c
+from attitude_ros.convert import (bad_quaternion, bad_vector, mrp_from_quaternion,
+                                  set_vector3, stamp_ns, vector3)
+from attitude_ros.params import declare_scenario
+from attitude_ros.runner import run
+
+_PENDING_MAX = 64  # stamps kept while waiting for their other inputs
+
+
+class PdControllerNode(Node):
+    _INPUTS = (c.ATTITUDE, c.ANGULAR_VELOCITY, c.TARGET_MRP, c.TARGET_RATE)
+
+    def __init__(self) -> None:
+        super().__init__("pd_controller")
+        self.scenario = declare_scenario(self)
+        self.gains = PdGains(self.scenario.kp, self.scenario.kd)
+        self.pending: dict[int, list] = {}
+        self.answered: dict[int, WrenchStamped] = {}
+        self.rejected = 0
+        self.pub_torque = self.create_publisher(WrenchStamped, c.TORQUE,
+                                                c.qos(c.topic(c.TORQUE)))
+        for slot, (name, msg_type, convert) in enumerate((
+                (c.ATTITUDE, QuaternionStamped, self.attitude),
+                (c.ANGULAR_VELOCITY, Vector3Stamped, self.vector),
+                (c.TARGET_MRP, Vector3Stamped, self.vector),
+                (c.TARGET_RATE, Vector3Stamped, self.vector))):
+            self.create_subscription(
+                msg_type, name, self.callback(slot, name, convert),
+                c.qos(c.topic(name), subscriber=True))
+        self.get_logger().info(
+            f"scenario '{self.scenario.name}': Kp = {self.scenario.kp_over_j} J, "
+            f"Kd = {self.scenario.kd_over_j} J")
+
+    @staticmethod
+    def attitude(msg):
+        reason = bad_quaternion(msg.quaternion)
+        return (None, reason) if reason else (mrp_from_quaternion(msg.quaternion), None)
+
+    @staticmethod
+    def vector(msg):
+        v = vector3(msg.vector)
+        reason = bad_vector(v, "vector")
+        return (None, reason) if reason else (v, None)
+
+    def callback(self, slot: int, name: str, convert):
+        def on_message(msg) -> None:
+            stamp = stamp_ns(msg.header.stamp)
+            if stamp in self.answered:  # lockstep re-send: answer again, identically
+                if slot == 0:
+                    self.pub_torque.publish(self.answered[stamp])
+                return
+            value, reason = convert(msg)
+            if reason:
+                self.rejected += 1
+                self.get_logger().warning(f"rejected {name} message ({self.rejected} so far): "
+                                          f"{reason}", throttle_duration_sec=1.0)
+                return
+            inputs = self.pending.setdefault(stamp, [None] * 4)
+            inputs[slot] = value
+            if all(x is not None for x in inputs):
+                self.answer(stamp, msg.header.stamp, inputs)
+            elif len(self.pending) > _PENDING_MAX:
+                del self.pending[min(self.pending)]
+        return on_message
+
+    def answer(self, stamp: int, stamp_msg, inputs) -> None:
+        sigma_bn, omega_b, sigma_t, omega_t = inputs
+        u = pd_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t)
+        out = WrenchStamped()
+        out.header.stamp = stamp_msg
+        out.header.frame_id = c.BODY_FRAME
+        set_vector3(out.wrench.torque, u)
+        self.pub_torque.publish(out)
+        for old in [s for s in self.pending if s <= stamp]:
+            del self.pending[old]
+        self.answered = {stamp: out}
+
+
+def main(args=None) -> int:
+    return run(PdControllerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

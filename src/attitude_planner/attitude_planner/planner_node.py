@@ -1,0 +1,128 @@
+"""FEPF planner node (``ros2 run attitude_planner fepf_planner``).
+
+Subscribes ``/spacecraft/attitude``; for each new state stamp it takes one FEPF step
+(paper eqs. 6-10, 12) and publishes, stamped with that state's stamp:
+``/planner/target_mrp`` (``sigma_t`` = sigma_RN), ``/planner/target_rate`` (``omega_t``,
+target-frame axes, rad/s), ``/planner/keep_out_margin_deg`` (the smallest keep-out
+margin of the measured attitude, eq. 5) and ``/diagnostics``; ``/planner/status``
+(tracking, arrived, stuck, infeasible) is latched and published on change.
+
+It only reacts to messages, so lockstep simulation, real time and a hardware bridge
+look the same to it. The planner starts from the first measured attitude (equal to the
+scenario's ``initial_mrp`` on a fresh run), so a restarted planner resumes from where
+the spacecraft is. A repeated stamp (a lockstep re-send) gets the same answer again;
+an older stamp or an unusable quaternion is rejected, logged and counted.
+"""
+
+from __future__ import annotations
+
+import time
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
+from rclpy.node import Node
+from std_msgs.msg import Float64, String
+
+from attitude_core.fepf import PlannerStatus
+from attitude_core.offline import build_planner
+from attitude_ros import contract as c
+from attitude_ros.convert import bad_quaternion, mrp_from_quaternion, set_vector3, stamp_ns
+from attitude_ros.params import declare_scenario
+from attitude_ros.runner import run
+
+_LEVELS = {PlannerStatus.TRACKING: DiagnosticStatus.OK, PlannerStatus.ARRIVED: DiagnosticStatus.OK,
+           PlannerStatus.STUCK: DiagnosticStatus.WARN,
+           PlannerStatus.INFEASIBLE: DiagnosticStatus.ERROR}
+
+
+class FepfPlannerNode(Node):
+    def __init__(self) -> None:
+        super().__init__("fepf_planner")
+        self.scenario = declare_scenario(self)
+        self.exact = self.scenario.keep_out(samples=16)
+        build_planner(self.scenario)  # builds the fuzzy lookup tables before the first state
+        self.planner = None
+        self.last_stamp_ns = None
+        self.rejected = 0
+        self.status = None
+        pub = self.create_publisher
+        self.pub_mrp = pub(Vector3Stamped, c.TARGET_MRP, c.qos(c.topic(c.TARGET_MRP)))
+        self.pub_rate = pub(Vector3Stamped, c.TARGET_RATE, c.qos(c.topic(c.TARGET_RATE)))
+        self.pub_status = pub(String, c.PLANNER_STATUS, c.qos(c.topic(c.PLANNER_STATUS)))
+        self.pub_margin = pub(Float64, c.KEEP_OUT_MARGIN, c.qos(c.topic(c.KEEP_OUT_MARGIN)))
+        self.pub_diag = pub(DiagnosticArray, c.DIAGNOSTICS, c.qos(c.topic(c.DIAGNOSTICS)))
+        self.out_mrp, self.out_rate = Vector3Stamped(), Vector3Stamped()
+        self.out_mrp.header.frame_id = c.INERTIAL_FRAME
+        self.out_rate.header.frame_id = c.TARGET_FRAME
+        self.out_margin = Float64()
+        self.out_diag = None
+        self.create_subscription(QuaternionStamped, c.ATTITUDE, self.on_attitude,
+                                 c.qos(c.topic(c.ATTITUDE), subscriber=True))
+        self.get_logger().info(
+            f"scenario '{self.scenario.name}': FEPF variant {self.scenario.planner.variant}, "
+            f"{len(self.scenario.instrument_names)} instrument(s), "
+            f"{len(self.scenario.bright_object_names)} bright object(s)")
+
+    def reject(self, reason: str) -> None:
+        self.rejected += 1
+        self.get_logger().warning(f"rejected {c.ATTITUDE} message ({self.rejected} so far): "
+                                  f"{reason}", throttle_duration_sec=1.0)
+
+    def on_attitude(self, msg: QuaternionStamped) -> None:
+        stamp = stamp_ns(msg.header.stamp)
+        if self.last_stamp_ns is not None and stamp <= self.last_stamp_ns:
+            if stamp == self.last_stamp_ns:
+                self.publish()  # lockstep re-send: same state, same answer
+            else:
+                self.reject(f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns")
+            return
+        reason = bad_quaternion(msg.quaternion)
+        if reason:
+            self.reject(reason)
+            return
+        sigma_bn = mrp_from_quaternion(msg.quaternion)
+        if self.planner is None:
+            self.planner = build_planner(self.scenario, sigma_0=sigma_bn)
+            self.get_logger().info(f"planning from sigma_BN = {sigma_bn.round(6).tolist()}")
+        t0 = time.perf_counter()
+        out = self.planner.step()
+        step_s = time.perf_counter() - t0
+        self.last_stamp_ns = stamp
+        self.out_mrp.header.stamp = msg.header.stamp
+        self.out_rate.header.stamp = msg.header.stamp
+        set_vector3(self.out_mrp.vector, out.sigma_t)
+        set_vector3(self.out_rate.vector, out.omega_t)
+        self.out_margin.data = float(self.exact.min_margin_deg_single(sigma_bn))
+        self.out_diag = self.diagnostics(msg.header.stamp, out, step_s)
+        self.publish()
+        if out.status != self.status:
+            self.status = out.status
+            self.pub_status.publish(String(data=out.status))
+            self.get_logger().info(f"status {out.status} at stamp {stamp / 1e9:.3f} s")
+
+    def publish(self) -> None:
+        self.pub_mrp.publish(self.out_mrp)
+        self.pub_rate.publish(self.out_rate)
+        self.pub_margin.publish(self.out_margin)
+        self.pub_diag.publish(self.out_diag)
+
+    def diagnostics(self, stamp, out, step_s: float) -> DiagnosticArray:
+        values = (("status", out.status), ("step_time_us", f"{step_s * 1e6:.3f}"),
+                  ("obstacle_distance_mrp", repr(float(out.obstacle_distance_mrp))),
+                  ("keep_out_margin_deg", repr(self.out_margin.data)),
+                  ("m_a", repr(float(out.m_a))), ("m_r", repr(float(out.m_r))),
+                  ("rejected_messages", str(self.rejected)))
+        status = DiagnosticStatus(level=_LEVELS[out.status], name="fepf_planner",
+                                  message=out.status, hardware_id="attitude_planner",
+                                  values=[KeyValue(key=k, value=v) for k, v in values])
+        diag = DiagnosticArray(status=[status])
+        diag.header.stamp = stamp
+        return diag
+
+
+def main(args=None) -> int:
+    return run(FepfPlannerNode, args)
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,67 @@
+"""Message <-> NumPy conversions and stamp arithmetic (no node state).
+
+Stamps are handled as integer nanoseconds so that lockstep stamps ``k * dt`` are exact.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from attitude_core.mrp import mrp_from_quat, quat_from_mrp
+
+NS_PER_S = 1_000_000_000
+
+
+def stamp_ns(stamp) -> int:
+    """``builtin_interfaces/Time`` -> integer nanoseconds."""
+    return stamp.sec * NS_PER_S + stamp.nanosec
+
+
+def set_stamp(stamp, ns: int) -> None:
+    """Write integer nanoseconds into a ``builtin_interfaces/Time`` in place."""
+    stamp.sec, stamp.nanosec = divmod(int(ns), NS_PER_S)
+
+
+def vector3(v) -> np.ndarray:
+    """``geometry_msgs/Vector3`` -> array (3,)."""
+    return np.array((v.x, v.y, v.z))
+
+
+def set_vector3(v, a) -> None:
+    v.x, v.y, v.z = float(a[0]), float(a[1]), float(a[2])
+
+
+def quaternion_xyzw(q) -> np.ndarray:
+    return np.array((q.x, q.y, q.z, q.w))
+
+
+def set_quaternion_from_mrp(q, sigma_bn) -> None:
+    """Body orientation in the inertial frame, ``(x, y, z, w)`` with ``w >= 0``."""
+    x, y, z, w = quat_from_mrp(np.asarray(sigma_bn, dtype=float))
+    q.x, q.y, q.z, q.w = float(x), float(y), float(z), float(w)
+
+
+def mrp_from_quaternion(q) -> np.ndarray:
+    """``sigma_BN`` (``|sigma| <= 1``) from a quaternion message (normalised first)."""
+    return mrp_from_quat(quaternion_xyzw(q))
+
+
+def bad_vector(values, name: str) -> str | None:
+    """Reason a vector read from a message is unusable (non-finite), else None."""
+    if not all(math.isfinite(x) for x in values):
+        return f"{name} has a non-finite element {list(values)}"
+    return None
+
+
+def bad_quaternion(q, tolerance: float = 1e-3) -> str | None:
+    """Reason a quaternion message is unusable: non-finite, zero or not of unit norm."""
+    values = (q.x, q.y, q.z, q.w)
+    reason = bad_vector(values, "orientation")
+    if reason:
+        return reason
+    norm = math.sqrt(sum(x * x for x in values))
+    if abs(norm - 1.0) > tolerance:
+        return f"orientation quaternion has norm {norm:.6g}, not 1"
+    return None

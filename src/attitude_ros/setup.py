@@ -1,0 +1,23 @@
+from setuptools import setup
+
+package_name = 'attitude_ros'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=[package_name],
+    data_files=[
+        ('share/ament_index/resource_index/packages',
+            ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Attitude Stack Maintainers',
+    maintainer_email='maintainers@attitude-stack.dev',
+    description='ROS 2 glue shared by the attitude nodes',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [],
+    },
+)
