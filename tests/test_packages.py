@@ -2,6 +2,7 @@
 
 import ast
 import configparser
+import os
 from pathlib import Path
 
 import pytest
@@ -9,8 +10,23 @@ from catkin_pkg.package import parse_package
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / 'src'
-PACKAGES = ['attitude_planner', 'attitude_controller', 'spacecraft_sim']
-EXEC_DEPENDS = {'rclpy', 'std_msgs', 'geometry_msgs', 'rosgraph_msgs', 'python3-numpy', 'python3-scipy'}
+NODE_PACKAGES = ['attitude_planner', 'attitude_controller', 'spacecraft_sim']
+PACKAGES = NODE_PACKAGES + ['attitude_ros', 'attitude_bringup']
+NODE_EXEC_DEPENDS = {'rclpy', 'std_msgs', 'geometry_msgs', 'rosgraph_msgs', 'python3-numpy',
+                     'python3-scipy'}
+EXEC_DEPENDS = {
+    **{pkg: NODE_EXEC_DEPENDS for pkg in NODE_PACKAGES},
+    # library of the nodes: messages, parameters, time; no scipy
+    'attitude_ros': {'rclpy', 'rcl_interfaces', 'std_msgs', 'geometry_msgs', 'rosgraph_msgs',
+                     'builtin_interfaces', 'python3-numpy'},
+    # recorder node and launch file: the node packages it starts, launch
+    'attitude_bringup': {'rclpy', 'attitude_ros', 'attitude_planner', 'attitude_controller',
+                         'spacecraft_sim', 'launch', 'launch_ros'},
+}
+# ROS packages of full installs only (no PyPI wheels): the launch file needs them.
+FULL_INSTALL_ONLY = {'launch', 'launch_ros'}
+# Pure pip packages in src/ (pyproject.toml, installed into .venv): colcon must skip them.
+PIP_PACKAGES = ['attitude_core', 'attitude_tools']
 
 
 def _parse(pkg):
@@ -53,7 +69,7 @@ def test_package_xml_valid(pkg):
     assert package.version == '0.1.0'
     assert [lic for lic in package.licenses] == ['Apache-2.0']
     assert [m.email for m in package.maintainers] == ['maintainers@attitude-stack.dev']
-    assert EXEC_DEPENDS <= {d.name for d in package.exec_depends}
+    assert EXEC_DEPENDS[pkg] <= {d.name for d in package.exec_depends}
     assert 'python3-pytest' in {d.name for d in package.test_depends}
 
 
@@ -110,3 +126,43 @@ def test_workspace_src_symlink():
     assert link.is_symlink()
     assert not Path(link.readlink()).is_absolute()
     assert link.resolve() == SRC.resolve()
+
+
+@pytest.mark.parametrize('pkg', PACKAGES)
+def test_exec_depends_are_known(pkg):
+    """Each ROS exec_depend is in the workspace, in .venv's ament index or full-install only."""
+    index = ROOT / '.venv' / 'share' / 'ament_index' / 'resource_index' / 'packages'
+    if not index.is_dir():
+        pytest.skip('.venv not bootstrapped')
+    package, _ = _parse(pkg)
+    unknown = [d.name for d in package.exec_depends
+               if not d.name.startswith('python3-')
+               and d.name not in FULL_INSTALL_ONLY
+               and not (SRC / d.name / 'package.xml').is_file()
+               and not (index / d.name).is_file()]
+    assert unknown == []
+
+
+def _console_scripts(pkg):
+    value = _setup_kwargs(pkg)['entry_points']
+    return ast.literal_eval(value).get('console_scripts', [])
+
+
+def test_attitude_ros_is_a_library():
+    assert _console_scripts('attitude_ros') == []
+
+
+@pytest.mark.parametrize('pkg', PIP_PACKAGES)
+def test_colcon_skips_pip_packages(pkg):
+    """attitude_core and attitude_tools are not ROS packages: colcon (which crawls every folder
+    below ros2_ws/src) must identify none of their folders, or they need a COLCON_IGNORE."""
+    identification = pytest.importorskip('colcon_core.package_identification')
+    extensions = identification.get_package_identification_extensions()
+    assert (SRC / pkg / 'pyproject.toml').is_file()
+    assert not (SRC / pkg / 'package.xml').exists()
+    if (SRC / pkg / 'COLCON_IGNORE').exists():
+        return
+    for dirpath, dirnames, _ in os.walk(SRC / pkg):
+        dirnames[:] = [d for d in dirnames if not d.startswith('.') and d != '__pycache__']
+        desc = identification.identify(extensions, Path(dirpath))
+        assert not desc, f'colcon identifies {dirpath} as a package: add src/{pkg}/COLCON_IGNORE'

@@ -61,6 +61,7 @@ __all__ = [
     "ArrivalConfig",
     "Scenario",
     "load_scenario",
+    "loads_scenario",
     "parse_scenario",
     "flatten_parameters",
     "ParameterSpec",
@@ -540,6 +541,11 @@ def load_scenario(path: str | Path) -> Scenario:
         text = Path(path).read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ScenarioError(source, None, f"cannot read file: {exc}") from exc
+    return loads_scenario(text, source)
+
+
+def loads_scenario(text: str, source: str = "<text>") -> Scenario:
+    """Validate the text of a scenario file (e.g. the copy stored in a bag)."""
     try:
         doc = yaml.load(text, Loader=_StrictLoader)  # noqa: S506 - SafeLoader subclass
     except yaml.YAMLError as exc:

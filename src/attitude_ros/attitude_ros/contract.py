@@ -1,63 +1,10 @@
-"""The topic contract of the stack: names, message types, frames and QoS, in one place.
-
-==================================  ===============================  ==========================
-topic                               type                             publisher
-==================================  ===============================  ==========================
-``/clock``                          rosgraph_msgs/msg/Clock          simulator
-``/spacecraft/attitude``            geometry_msgs/msg/QuaternionStamped  simulator (or HIL bridge)
-``/spacecraft/angular_velocity``    geometry_msgs/msg/Vector3Stamped simulator (or HIL bridge)
-``/planner/target_mrp``             geometry_msgs/msg/Vector3Stamped planner
-``/planner/target_rate``            geometry_msgs/msg/Vector3Stamped planner
-``/planner/status``                 std_msgs/msg/String              planner (latched)
-``/planner/keep_out_margin_deg``    std_msgs/msg/Float64             planner
-``/diagnostics``                    diagnostic_msgs/msg/DiagnosticArray  planner
-``/controller/torque``              geometry_msgs/msg/WrenchStamped  controller
-==================================  ===============================  ==========================
-
-Every stamped message of one step carries the stamp of the state it answers.
-"""
+"""The topic contract as rclpy needs it: the names of :mod:`attitude_core.topics`, plus QoS
+and message classes."""
 
 from __future__ import annotations
 
-from typing import NamedTuple
-
-CLOCK = "/clock"
-ATTITUDE = "/spacecraft/attitude"
-ANGULAR_VELOCITY = "/spacecraft/angular_velocity"
-TARGET_MRP = "/planner/target_mrp"
-TARGET_RATE = "/planner/target_rate"
-PLANNER_STATUS = "/planner/status"
-KEEP_OUT_MARGIN = "/planner/keep_out_margin_deg"
-DIAGNOSTICS = "/diagnostics"
-TORQUE = "/controller/torque"
-
-INERTIAL_FRAME = "inertial"   # N
-BODY_FRAME = "body"           # B
-TARGET_FRAME = "target"       # R: the planner's target attitude
-
-# Depth of the reliable publishers' history: deep enough that a recorder lagging by
-# that many steps still receives every sample.
-HISTORY_DEPTH = 200
-
-
-class Topic(NamedTuple):
-    name: str
-    type_name: str      # pkg/msg/Type
-    stamped: bool       # first field is a header (or a Time): the recorder logs at that stamp
-    latched: bool = False
-
-
-TOPICS = (
-    Topic(CLOCK, "rosgraph_msgs/msg/Clock", True),
-    Topic(ATTITUDE, "geometry_msgs/msg/QuaternionStamped", True),
-    Topic(ANGULAR_VELOCITY, "geometry_msgs/msg/Vector3Stamped", True),
-    Topic(TARGET_MRP, "geometry_msgs/msg/Vector3Stamped", True),
-    Topic(TARGET_RATE, "geometry_msgs/msg/Vector3Stamped", True),
-    Topic(PLANNER_STATUS, "std_msgs/msg/String", False, latched=True),
-    Topic(KEEP_OUT_MARGIN, "std_msgs/msg/Float64", False),
-    Topic(DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray", True),
-    Topic(TORQUE, "geometry_msgs/msg/WrenchStamped", True),
-)
+from attitude_core.topics import *  # noqa: F401,F403 - the contract's names, re-exported
+from attitude_core.topics import CLOCK, HISTORY_DEPTH, TOPICS, Topic  # noqa: F401
 
 
 def qos(topic: Topic | None = None, *, subscriber: bool = False):
@@ -77,6 +24,13 @@ def qos(topic: Topic | None = None, *, subscriber: bool = False):
         durability=(DurabilityPolicy.VOLATILE if subscriber and not latched
                     else DurabilityPolicy.TRANSIENT_LOCAL),
     )
+
+
+def message_class(type_name: str):
+    """The Python class of ``pkg/msg/Type``."""
+    import importlib
+    pkg, _, name = type_name.split("/")
+    return getattr(importlib.import_module(f"{pkg}.msg"), name)
 
 
 def topic(name: str) -> Topic:

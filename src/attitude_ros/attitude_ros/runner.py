@@ -33,7 +33,13 @@ def run(node_factory, args=None) -> int:
         executor = EventsExecutor()
         executor.add_node(node)
         while rclpy.ok() and not getattr(node, "done", False):
-            executor.spin_once(timeout_sec=0.1)
+            try:
+                executor.spin_once(timeout_sec=0.1)
+            except RuntimeError:
+                # The events executor can raise while SIGINT/SIGTERM tears the context
+                # down under it; that is a shutdown, not a failure.
+                if rclpy.ok():
+                    raise
         code = getattr(node, "exit_code", EXIT_OK)
     except ScenarioError as err:
         name = "node" if node is None else node.get_name()

@@ -1,0 +1,63 @@
+"""The topic contract of the stack: names, message types and frames, in one place.
+
+Plain data (no ROS import): the nodes (through ``attitude_ros.contract``, which adds
+the QoS), the recorder and the bag readers all take their names from here.
+
+==================================  ===============================  ==========================
+topic                               type                             publisher
+==================================  ===============================  ==========================
+``/clock``                          rosgraph_msgs/msg/Clock          simulator
+``/spacecraft/attitude``            geometry_msgs/msg/QuaternionStamped  simulator (or HIL bridge)
+``/spacecraft/angular_velocity``    geometry_msgs/msg/Vector3Stamped simulator (or HIL bridge)
+``/planner/target_mrp``             geometry_msgs/msg/Vector3Stamped planner
+``/planner/target_rate``            geometry_msgs/msg/Vector3Stamped planner
+``/planner/status``                 std_msgs/msg/String              planner (latched)
+``/planner/keep_out_margin_deg``    std_msgs/msg/Float64             planner
+``/diagnostics``                    diagnostic_msgs/msg/DiagnosticArray  planner
+``/controller/torque``              geometry_msgs/msg/WrenchStamped  controller
+==================================  ===============================  ==========================
+
+Every stamped message of one step carries the stamp of the state it answers.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+CLOCK = "/clock"
+ATTITUDE = "/spacecraft/attitude"
+ANGULAR_VELOCITY = "/spacecraft/angular_velocity"
+TARGET_MRP = "/planner/target_mrp"
+TARGET_RATE = "/planner/target_rate"
+PLANNER_STATUS = "/planner/status"
+KEEP_OUT_MARGIN = "/planner/keep_out_margin_deg"
+DIAGNOSTICS = "/diagnostics"
+TORQUE = "/controller/torque"
+
+INERTIAL_FRAME = "inertial"   # N
+BODY_FRAME = "body"           # B
+TARGET_FRAME = "target"       # R: the planner's target attitude
+
+# Depth of the reliable publishers' history: deep enough that a recorder lagging by
+# that many steps still receives every sample.
+HISTORY_DEPTH = 200
+
+
+class Topic(NamedTuple):
+    name: str
+    type_name: str      # pkg/msg/Type
+    stamped: bool       # first field is a header (or a Time): the recorder logs at that stamp
+    latched: bool = False
+
+
+TOPICS = (
+    Topic(CLOCK, "rosgraph_msgs/msg/Clock", True),
+    Topic(ATTITUDE, "geometry_msgs/msg/QuaternionStamped", True),
+    Topic(ANGULAR_VELOCITY, "geometry_msgs/msg/Vector3Stamped", True),
+    Topic(TARGET_MRP, "geometry_msgs/msg/Vector3Stamped", True),
+    Topic(TARGET_RATE, "geometry_msgs/msg/Vector3Stamped", True),
+    Topic(PLANNER_STATUS, "std_msgs/msg/String", False, latched=True),
+    Topic(KEEP_OUT_MARGIN, "std_msgs/msg/Float64", False),
+    Topic(DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray", True),
+    Topic(TORQUE, "geometry_msgs/msg/WrenchStamped", True),
+)

@@ -1,0 +1,539 @@
+"""rosbag2-compatible MCAP bags without rclpy: write raw CDR, read back decoded.
+
+A bag is a directory holding ``metadata.yaml`` and one ``<dir name>_0.mcap`` file,
+laid out as ``ros2 bag record -s mcap`` of ROS 2 Jazzy lays it out (metadata
+version 9, MCAP profile ``ros2``, schemas ``ros2msg``, channels ``cdr`` with the
+``offered_qos_profiles`` and ``topic_type_hash`` channel metadata). rosbags and
+mcap_ros2 read it (tested); ``ros2 bag info/play`` should, by construction from
+rosbag2's Jazzy sources (no rosbag2 install to test against here).
+
+Crash safety: ``metadata.yaml`` is replaced atomically, a provisional one (zero
+counts) exists from the start, and every finished MCAP chunk is flushed and synced
+to disk; ``recover_messages`` reads the complete chunks of a file whose writer
+died before ``close``.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import heapq
+import os
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any, NamedTuple
+
+import yaml
+from mcap.reader import make_reader
+from mcap.records import Attachment, Channel, Chunk, Message, Schema
+from mcap.stream_reader import StreamReader, breakup_chunk
+from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
+from mcap_ros2.decoder import DecoderFactory
+
+from . import msgdefs
+
+__all__ = [
+    "BAG_FORMAT_VERSION",
+    "BagMessage",
+    "BagWriter",
+    "bag_info",
+    "qos_profile_yaml",
+    "read_attachment",
+    "read_bag",
+    "recover_messages",
+]
+
+BAG_FORMAT_VERSION = 9
+"""``rosbag2_storage::BagMetadata::version`` of ROS 2 Jazzy (QoS as YAML lists, enum names)."""
+
+ROS_DISTRO = "jazzy"
+METADATA_FILE = "metadata.yaml"
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+TIME_MAX_NS = 2**63 - 1
+"""rosbag2's ``starting_time`` of a bag without messages (``nanoseconds::max()``)."""
+
+RMW_DURATION_INFINITE = {"sec": 9223372036, "nsec": 854775807}
+"""How Jazzy's rosbag2 records an infinite deadline, lifespan or lease duration."""
+
+_COMPRESSION = {
+    "none": CompressionType.NONE,
+    "lz4": CompressionType.LZ4,
+    "zstd": CompressionType.ZSTD,
+}
+_RELIABILITY = ("reliable", "best_effort", "system_default", "best_available")
+_DURABILITY = ("volatile", "transient_local", "system_default", "best_available")
+_QOS_KEYS = (
+    "history", "depth", "reliability", "durability", "deadline", "lifespan",
+    "liveliness", "liveliness_lease_duration", "avoid_ros_namespace_conventions",
+)
+
+
+class BagMessage(NamedTuple):
+    """One decoded message of a bag."""
+
+    topic: str
+    type_name: str
+    log_time_ns: int
+    publish_time_ns: int
+    msg: Any
+
+
+def qos_profile_yaml(reliability: str, durability: str, depth: int) -> str:
+    """One offered QoS profile as Jazzy's rosbag2 serializes it (a YAML list of one).
+
+    ``reliability``: ``'reliable'`` or ``'best_effort'``; ``durability``:
+    ``'volatile'`` or ``'transient_local'`` (``'system_default'`` and
+    ``'best_available'`` are accepted too); history is ``keep_last`` of ``depth``;
+    deadline, lifespan and liveliness lease are infinite, liveliness automatic.
+    """
+    if reliability not in _RELIABILITY:
+        raise ValueError(f"reliability must be one of {_RELIABILITY}, not {reliability!r}")
+    if durability not in _DURABILITY:
+        raise ValueError(f"durability must be one of {_DURABILITY}, not {durability!r}")
+    if isinstance(depth, bool) or not isinstance(depth, int) or depth < 0:
+        raise ValueError(f"depth must be an int >= 0, not {depth!r}")
+    sec, nsec = RMW_DURATION_INFINITE["sec"], RMW_DURATION_INFINITE["nsec"]
+    infinite = f"\n    sec: {sec}\n    nsec: {nsec}"
+    return (
+        f"- history: keep_last\n"
+        f"  depth: {depth}\n"
+        f"  reliability: {reliability}\n"
+        f"  durability: {durability}\n"
+        f"  deadline:{infinite}\n"
+        f"  lifespan:{infinite}\n"
+        f"  liveliness: automatic\n"
+        f"  liveliness_lease_duration:{infinite}\n"
+        f"  avoid_ros_namespace_conventions: false"
+    )
+
+
+def _parse_qos(text: str) -> list[dict]:
+    """Offered QoS profiles string -> list of profile mappings (ValueError if malformed)."""
+    if not isinstance(text, str):
+        raise TypeError(f"offered_qos_profiles must be a YAML string, not {type(text).__name__}")
+    if not text.strip():
+        return []
+    try:
+        profiles = yaml.safe_load(text)
+    except yaml.YAMLError as err:
+        raise ValueError(f"offered_qos_profiles is not valid YAML: {err}") from None
+    if profiles is None:
+        return []
+    if not isinstance(profiles, list) or not all(isinstance(p, dict) for p in profiles):
+        raise ValueError("offered_qos_profiles must be a YAML list of QoS profile mappings")
+    for profile in profiles:
+        missing = [k for k in _QOS_KEYS if k not in profile]
+        if missing:
+            raise ValueError(f"offered_qos_profiles entry lacks {missing}")
+    return profiles
+
+
+class _Topic(NamedTuple):
+    name: str
+    type_name: str
+    qos_profiles: list
+    type_hash: str
+    channel_id: int
+
+
+class BagWriter:
+    """rosbag2 bag directory (metadata.yaml + <name>_0.mcap), storage 'mcap', profile 'ros2'.
+
+    ``bag_dir`` must not exist or be an empty directory (FileExistsError otherwise).
+    ``chunk_size`` is the MCAP chunk size in bytes; ``compression`` the chunk
+    compression, ``'none'``, ``'lz4'`` or ``'zstd'``. Thread-safe; a context manager.
+    """
+
+    def __init__(self, bag_dir: str, *, chunk_size: int = 256 * 1024, compression: str = "none"):
+        if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size <= 0:
+            raise ValueError(f"chunk_size must be a positive int, not {chunk_size!r}")
+        if compression not in _COMPRESSION:
+            raise ValueError(
+                f"compression must be one of {sorted(_COMPRESSION)}, not {compression!r}"
+            )
+        bag_dir = os.path.abspath(os.fspath(bag_dir))
+        if os.path.lexists(bag_dir) and not (os.path.isdir(bag_dir) and not os.listdir(bag_dir)):
+            raise FileExistsError(
+                f"bag directory {bag_dir!r} exists and is not an empty directory"
+            )
+        os.makedirs(bag_dir, exist_ok=True)
+
+        self.bag_dir = bag_dir
+        self.file_name = f"{os.path.basename(bag_dir)}_0.mcap"
+        self._lock = threading.RLock()
+        self._topics: dict[str, _Topic] = {}
+        self._schema_ids: dict[str, int] = {}
+        self._counts: dict[str, int] = {}
+        self._start_ns: int | None = None
+        self._end_ns: int | None = None
+        self._closed = False
+        self._file = open(os.path.join(bag_dir, self.file_name), "xb")
+        try:
+            self._mcap = Writer(
+                self._file,
+                chunk_size=chunk_size,
+                compression=_COMPRESSION[compression],
+            )
+            self._mcap.start(profile="ros2", library=f"attitude_tools.bag; {LIBRARY_IDENTIFIER}")
+            self._sync_file()
+            self._write_metadata_yaml()
+        except BaseException:
+            self._file.close()
+            raise
+
+    # -- writing -------------------------------------------------------------------
+
+    def add_topic(self, name: str, type_name: str, offered_qos_profiles: str = "") -> None:
+        """Register a topic: its ``ros2msg`` schema (once per type) and its ``cdr`` channel.
+
+        ``offered_qos_profiles`` is a YAML list of QoS profiles (see
+        ``qos_profile_yaml``) or ``''``. Adding the same topic again with the same
+        type and QoS does nothing; with a different one raises ValueError.
+        """
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"topic name must be a non-empty string, not {name!r}")
+        pkg, type_ = msgdefs.normalize_type_name(type_name)
+        type_name = f"{pkg}/msg/{type_}"
+        profiles = _parse_qos(offered_qos_profiles)
+        # Jazzy's rosbag2 never stores an empty channel string: an empty list dumps as "[]".
+        qos_text = offered_qos_profiles if profiles else "[]"
+        with self._lock:
+            self._check_open()
+            if name in self._topics:
+                known = self._topics[name]
+                if (known.type_name, known.qos_profiles) != (type_name, profiles):
+                    raise ValueError(
+                        f"topic {name!r} already added as {known.type_name} with other QoS"
+                    )
+                return
+            if type_name not in self._schema_ids:
+                definition = msgdefs.message_definition(type_name)
+                self._schema_ids[type_name] = self._guarded(
+                    self._mcap.register_schema, type_name, "ros2msg", definition.encode()
+                )
+            type_hash = msgdefs.type_description_hash(type_name)
+            channel_id = self._guarded(
+                self._mcap.register_channel,
+                topic=name,
+                message_encoding="cdr",
+                schema_id=self._schema_ids[type_name],
+                metadata={"offered_qos_profiles": qos_text, "topic_type_hash": type_hash},
+            )
+            self._topics[name] = _Topic(name, type_name, profiles, type_hash, channel_id)
+            self._counts[name] = 0
+            self._write_metadata_yaml()
+
+    def write(
+        self, topic: str, data: bytes, log_time_ns: int, publish_time_ns: int | None = None
+    ) -> None:
+        """Append one message: ``data`` is the raw CDR (4-byte encapsulation header first).
+
+        ``log_time_ns`` is the receive time, ``publish_time_ns`` the send time
+        (defaults to ``log_time_ns``), both in ns since the epoch.
+        """
+        if not isinstance(data, (bytes, bytearray, memoryview)):
+            raise TypeError(f"data must be bytes (serialized CDR), not {type(data).__name__}")
+        data = bytes(data)
+        if len(data) < 4 or data[0] != 0:
+            raise ValueError("data is not CDR: it must start with a 4-byte encapsulation header")
+        log_time_ns = _check_time("log_time_ns", log_time_ns)
+        if publish_time_ns is None:
+            publish_time_ns = log_time_ns
+        publish_time_ns = _check_time("publish_time_ns", publish_time_ns)
+        with self._lock:
+            self._check_open()
+            if topic not in self._topics:
+                raise KeyError(f"unknown topic {topic!r}: call add_topic first")
+            self._guarded(
+                self._mcap.add_message,
+                channel_id=self._topics[topic].channel_id,
+                log_time=log_time_ns,
+                data=data,
+                publish_time=publish_time_ns,
+                sequence=0,
+            )
+            self._counts[topic] += 1
+            if self._start_ns is None:
+                self._start_ns = self._end_ns = log_time_ns
+            else:
+                self._start_ns = min(self._start_ns, log_time_ns)
+                self._end_ns = max(self._end_ns, log_time_ns)
+
+    def add_attachment(self, name: str, data: bytes, media_type: str) -> None:
+        """Store a file in the MCAP as an attachment (e.g. the run's scenario YAML).
+
+        rosbag2 ignores attachments; MCAP readers (``mcap``, Foxglove) list them.
+        """
+        if not isinstance(name, str) or not name:
+            raise ValueError(f"attachment name must be a non-empty string, not {name!r}")
+        if not isinstance(data, (bytes, bytearray, memoryview)):
+            raise TypeError(f"attachment data must be bytes, not {type(data).__name__}")
+        now_ns = time.time_ns()
+        with self._lock:
+            self._check_open()
+            self._guarded(
+                self._mcap.add_attachment,
+                create_time=now_ns, log_time=now_ns, name=name, media_type=media_type,
+                data=bytes(data),
+            )
+
+    def close(self) -> None:
+        """Finish the MCAP (summary, footer) and write the final metadata.yaml; idempotent."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            try:
+                info = self._metadata()
+                self._mcap.add_metadata(
+                    "rosbag2", {"serialized_metadata": yaml.safe_dump(info, sort_keys=False)}
+                )
+                self._mcap.finish()
+                self._file.flush()
+                os.fsync(self._file.fileno())
+            finally:
+                self._file.close()
+                self._write_metadata_yaml()
+
+    def __enter__(self) -> BagWriter:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    @property
+    def message_count(self) -> int:
+        """Messages written so far, all topics."""
+        with self._lock:
+            return sum(self._counts.values())
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    # -- internals -----------------------------------------------------------------
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise ValueError(f"bag {self.bag_dir!r} is closed")
+
+    def _guarded(self, fn, *args, **kwargs):
+        """Call an MCAP writer method; if it wrote a chunk, push the chunk to the disk."""
+        before = self._file.tell()
+        result = fn(*args, **kwargs)
+        if self._file.tell() != before:
+            self._sync_file()
+        return result
+
+    def _sync_file(self) -> None:
+        self._file.flush()
+        os.fsync(self._file.fileno())
+
+    def _metadata(self) -> dict:
+        """``rosbag2_bagfile_information`` as Jazzy's rosbag2 writes it (key order included)."""
+        count = self.message_count
+        start = TIME_MAX_NS if self._start_ns is None else self._start_ns
+        duration = 0 if self._start_ns is None else self._end_ns - self._start_ns
+        return {
+            "version": BAG_FORMAT_VERSION,
+            "storage_identifier": "mcap",
+            "duration": {"nanoseconds": duration},
+            "starting_time": {"nanoseconds_since_epoch": start},
+            "message_count": count,
+            "topics_with_message_count": [
+                {
+                    "topic_metadata": {
+                        "name": t.name,
+                        "type": t.type_name,
+                        "serialization_format": "cdr",
+                        "offered_qos_profiles": t.qos_profiles,
+                        "type_description_hash": t.type_hash,
+                    },
+                    "message_count": self._counts[t.name],
+                }
+                for t in self._topics.values()
+            ],
+            "compression_format": "",
+            "compression_mode": "",
+            "relative_file_paths": [self.file_name],
+            "files": [
+                {
+                    "path": self.file_name,
+                    "starting_time": {"nanoseconds_since_epoch": start},
+                    "duration": {"nanoseconds": duration},
+                    "message_count": count,
+                }
+            ],
+            "custom_data": None,
+            "ros_distro": ROS_DISTRO,
+        }
+
+    def _write_metadata_yaml(self) -> None:
+        """Replace metadata.yaml atomically (temp file, fsync, os.replace)."""
+        text = yaml.safe_dump(
+            {"rosbag2_bagfile_information": self._metadata()}, sort_keys=False,
+            default_flow_style=False,
+        )
+        path = os.path.join(self.bag_dir, METADATA_FILE)
+        tmp = os.path.join(self.bag_dir, f".{METADATA_FILE}.tmp")
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+        with contextlib.suppress(OSError):
+            fd = os.open(self.bag_dir, os.O_RDONLY)
+            try:
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+
+
+def _check_time(name: str, value: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(f"{name} must be an int (ns), not {type(value).__name__}")
+    if not 0 <= value < 2**64:
+        raise ValueError(f"{name} out of range: {value}")
+    return value
+
+
+# -- reading -----------------------------------------------------------------------
+
+
+def bag_info(bag_dir: str) -> dict:
+    """The ``rosbag2_bagfile_information`` mapping of a bag's metadata.yaml."""
+    path = os.path.join(os.fspath(bag_dir), METADATA_FILE)
+    with open(path, encoding="utf-8") as f:
+        doc = yaml.safe_load(f)
+    if not isinstance(doc, dict) or "rosbag2_bagfile_information" not in doc:
+        raise ValueError(f"{path} has no rosbag2_bagfile_information")
+    return doc["rosbag2_bagfile_information"]
+
+
+def _mcap_files(bag_dir: str) -> list[str]:
+    """The bag's storage files: from metadata.yaml, else every ``*.mcap`` in the directory."""
+    bag_dir = os.fspath(bag_dir)
+    if os.path.isfile(os.path.join(bag_dir, METADATA_FILE)):
+        names = [os.path.basename(p) for p in bag_info(bag_dir)["relative_file_paths"]]
+    else:
+        names = sorted(n for n in os.listdir(bag_dir) if n.endswith(".mcap"))
+    if not names:
+        raise FileNotFoundError(f"no MCAP file in bag {bag_dir!r}")
+    return [os.path.join(bag_dir, n) for n in names]
+
+
+def _is_finished(path: str) -> bool:
+    """True when an MCAP file ends with its closing magic (its writer finished it)."""
+    with open(path, "rb") as f:
+        if f.seek(0, os.SEEK_END) < 2 * len(MCAP_MAGIC):
+            return False
+        f.seek(-len(MCAP_MAGIC), os.SEEK_END)
+        return f.read() == MCAP_MAGIC
+
+
+def read_bag(bag_dir: str, topics: list[str] | None = None) -> Iterator[BagMessage]:
+    """Decoded messages of a finished bag in log-time order (optionally only ``topics``).
+
+    Decodes with ``mcap_ros2`` from the schemas stored in the bag. A bag whose
+    writer died before ``close`` has no MCAP summary: use ``recover_messages``.
+    """
+    with contextlib.ExitStack() as stack:
+        streams = []
+        for path in _mcap_files(bag_dir):
+            if not _is_finished(path):
+                raise ValueError(
+                    f"{path} is not a finished MCAP file (its writer was killed?): "
+                    "read it with recover_messages"
+                )
+            f = stack.enter_context(open(path, "rb"))
+            reader = make_reader(f, decoder_factories=[DecoderFactory()])
+            streams.append(
+                BagMessage(
+                    channel.topic, schema.name if schema else "",
+                    message.log_time, message.publish_time, decoded,
+                )
+                for schema, channel, message, decoded in reader.iter_decoded_messages(
+                    topics=topics, log_time_order=True
+                )
+            )
+        yield from heapq.merge(*streams, key=lambda m: m.log_time_ns)
+
+
+_MESSAGE_RECORDS = (Schema, Channel, Message)
+
+
+def _stream_records(path: str, kinds: tuple[type, ...] = _MESSAGE_RECORDS) -> Iterator[Any]:
+    """The records of the given kinds of an MCAP file, in file order.
+
+    Stops quietly at a truncated or damaged end (a writer killed mid-file).
+    """
+    open_chunks = any(k in kinds for k in _MESSAGE_RECORDS)
+    with open(path, "rb") as f:
+        records = StreamReader(f, emit_chunks=True).records
+        while True:
+            try:
+                record = next(records)
+                # A chunk is only yielded once all its bytes were read; its CRC catches the rest.
+                if isinstance(record, Chunk):
+                    inner = breakup_chunk(record, validate_crc=True) if open_chunks else []
+                else:
+                    inner = [record]
+            except StopIteration:
+                return
+            except Exception:  # noqa: BLE001 - truncated or damaged tail: stop there
+                return
+            for item in inner:
+                if isinstance(item, kinds):
+                    yield item
+
+
+def read_attachment(bag_dir: str, name: str) -> bytes:
+    """Data of the attachment ``name`` (see ``BagWriter.add_attachment``); KeyError if absent.
+
+    Works on unfinished bags too (attachments are written straight to the file).
+    """
+    for path in _mcap_files(bag_dir):
+        if _is_finished(path):
+            with open(path, "rb") as f:
+                found = [a.data for a in make_reader(f).iter_attachments() if a.name == name]
+        else:
+            found = [a.data for a in _stream_records(path, (Attachment,)) if a.name == name]
+        if found:
+            return found[0]
+    raise KeyError(f"no attachment {name!r} in bag {os.fspath(bag_dir)!r}")
+
+
+def recover_messages(bag_dir: str, topics: list[str] | None = None) -> Iterator[BagMessage]:
+    """Decoded messages of a bag, finished or not, in file order, as far as intact.
+
+    For a bag whose writer was killed (no MCAP summary or footer): reads the MCAP
+    files front to back and yields the messages of every complete chunk, stopping
+    quietly at the truncated end.
+    """
+    wanted = None if topics is None else set(topics)
+    factory = DecoderFactory()
+    for path in _mcap_files(bag_dir):
+        schemas: dict[int, Schema] = {}
+        channels: dict[int, Channel] = {}
+        decoders: dict[int, Any] = {}
+        for record in _stream_records(path):
+            if isinstance(record, Schema):
+                schemas[record.id] = record
+            elif isinstance(record, Channel):
+                channels[record.id] = record
+            else:
+                channel = channels.get(record.channel_id)
+                if channel is None or (wanted is not None and channel.topic not in wanted):
+                    continue
+                schema = schemas.get(channel.schema_id)
+                if record.channel_id not in decoders:
+                    decoder = factory.decoder_for(channel.message_encoding, schema)
+                    if decoder is None:
+                        raise ValueError(
+                            f"cannot decode topic {channel.topic!r} ({channel.message_encoding})"
+                        )
+                    decoders[record.channel_id] = decoder
+                yield BagMessage(
+                    channel.topic, schema.name if schema else "",
+                    record.log_time, record.publish_time, decoders[record.channel_id](record.data),
+                )

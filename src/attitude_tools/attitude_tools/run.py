@@ -1,0 +1,257 @@
+"""``attitude-run SCENARIO.yaml --out DIR``: one scenario through the ROS 2 node graph.
+
+Starts the recorder, the planner, the controller and the simulator as separate
+processes with ``ros2 run <package> <executable> --ros-args ...`` (the real ROS 2 CLI
+where one is installed, else the project's ``ros2 run`` shim), waits until the
+planner reports arrived, stuck or infeasible (the recorder then closes the bag), or
+the scenario time ends, or a process fails; stops every process (SIGINT, then wait,
+SIGKILL after a grace period), rebuilds the run from the bag alone and writes
+``DIR/summary.json`` (the offline runner's fields plus the ROS run's own),
+``DIR/bag/`` and ``DIR/logs/``. Exit code: 0 reached without violation, 1 otherwise
+or on a failure, 2 bad input.
+
+The run is written to a temporary sibling of ``DIR`` that replaces ``DIR`` at the end,
+also after a failure (what was recorded is kept); a bad scenario writes nothing.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from attitude_core.offline import summarize
+from attitude_core.scenario import ScenarioError, load_scenario
+
+from .bag_run import run_from_bag
+
+NODES = (  # (package, executable, log name); the recorder first, the simulator last
+    ("attitude_bringup", "bag_recorder", "recorder"),
+    ("attitude_planner", "fepf_planner", "planner"),
+    ("attitude_controller", "pd_controller", "controller"),
+    ("spacecraft_sim", "rigid_body_sim", "simulator"),
+)
+STOP_STATUSES = ("arrived", "stuck", "infeasible")
+GRACE_S = 5.0
+
+
+class RunError(RuntimeError):
+    pass
+
+
+def default_workspace() -> Path:
+    """``ros2_ws/install`` of the checkout this package is installed from (editable)."""
+    return Path(__file__).resolve().parents[3] / "ros2_ws" / "install"
+
+
+def ros_environment(workspace: str | None = None) -> dict[str, str]:
+    """Environment for the nodes: the caller's, plus the colcon workspace when our packages
+    are not on ``AMENT_PREFIX_PATH`` yet (sourced once, as ``install/setup.bash`` does).
+
+    The virtualenv's prefix is on ``AMENT_PREFIX_PATH`` (rclpy and the message packages of
+    the PyPI wheels live there); discovery defaults to this host
+    (``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``) unless the caller set it.
+    """
+    env = dict(os.environ)
+    env.setdefault("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    env["PYTHONUNBUFFERED"] = "1"
+    venv_bin = str(Path(sys.prefix) / "bin")
+    if venv_bin not in env.get("PATH", "").split(os.pathsep):
+        env["PATH"] = env.get("PATH", "") + os.pathsep + venv_bin
+    prefixes = [p for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
+    if any((Path(p) / "share/ament_index/resource_index/packages/attitude_planner").exists()
+           for p in prefixes) and workspace is None:
+        return env
+    ws = Path(workspace) if workspace else default_workspace()
+    setup = ws / "setup.bash"
+    if not setup.is_file():
+        raise RunError(f"colcon workspace not built: {setup} does not exist "
+                       "(run `bash tools/bootstrap`, or pass --workspace)")
+    if sys.prefix not in prefixes:
+        prefixes.append(sys.prefix)
+    env["AMENT_PREFIX_PATH"] = os.pathsep.join(prefixes)
+    out = subprocess.run(
+        ["bash", "-c", 'set +u; source "$1" >/dev/null && env -0', "_", str(setup)],
+        env=env, capture_output=True, check=False)
+    if out.returncode != 0:
+        raise RunError(f"sourcing {setup} failed: {out.stderr.decode(errors='replace')}")
+    sourced = dict(item.split("=", 1) for item in out.stdout.decode().split("\0") if "=" in item)
+    for key in ("AMENT_PREFIX_PATH", "PYTHONPATH", "PATH", "COLCON_PREFIX_PATH",
+                "LD_LIBRARY_PATH"):
+        if key in sourced:
+            env[key] = sourced[key]
+    return env
+
+
+def _is_previous_run(path: Path) -> bool:
+    return (path / "summary.json").exists() or (path / "bag").is_dir()
+
+
+class NodeGraph:
+    """The four node processes of one run, with their logs."""
+
+    def __init__(self, ros2: str, env: dict[str, str], log_dir: Path) -> None:
+        self.ros2, self.env, self.log_dir = ros2, env, log_dir
+        self.procs: dict[str, subprocess.Popen] = {}
+
+    def start(self, package: str, executable: str, name: str, ros_args: list[str]) -> None:
+        log = open(self.log_dir / f"{name}.log", "wb")
+        self.procs[name] = subprocess.Popen(
+            [self.ros2, "run", package, executable, "--ros-args", *ros_args],
+            env=self.env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+            start_new_session=True)  # we, not the terminal, decide the shutdown order
+        log.close()
+
+    def exited(self) -> dict[str, int]:
+        return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}
+
+    def stop(self, names) -> dict[str, int]:
+        """SIGINT to each, wait up to ``GRACE_S`` together, then SIGKILL the rest."""
+        live = [self.procs[n] for n in names if self.procs[n].poll() is None]
+        for p in live:
+            p.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + GRACE_S
+        for p in live:
+            try:
+                p.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        return {n: self.procs[n].returncode for n in names}
+
+    def tail(self, name: str, lines: int = 15) -> str:
+        text = (self.log_dir / f"{name}.log").read_text(errors="replace").splitlines()
+        return "\n".join(f"    {line}" for line in text[-lines:])
+
+
+def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
+                 timeout_s: float | None = None, workspace: str | None = None,
+                 log=print) -> tuple[dict, Path]:
+    """Run one scenario through the node graph; return (summary, run directory)."""
+    wall0 = time.monotonic()
+    scenario = load_scenario(scenario_path)
+    out = Path(out_dir).resolve()
+    if out.exists() and any(out.iterdir()) and not _is_previous_run(out):
+        raise FileExistsError(f"--out {out}: exists and is not a previous run directory")
+    env = ros_environment(workspace)
+    ros2 = shutil.which("ros2", path=env["PATH"])
+    if ros2 is None:
+        raise RunError("no `ros2` command on PATH (run `bash tools/bootstrap`)")
+    if timeout_s is None:
+        timeout_s = 120.0 + (1.5 * scenario.sim_time_s if time_mode == "realtime" else 0.0)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".tmp-run-", dir=out.parent))
+    (tmp / "logs").mkdir()
+    shutil.copyfile(scenario_path, tmp / "scenario.yaml")
+    params = ["--params-file", str(Path(scenario_path).resolve())]
+    graph = NodeGraph(ros2, env, tmp / "logs")
+    end_reason, failure = None, None
+    stop_requested = []
+    handlers = {s: signal.signal(s, lambda n, f: stop_requested.append(n))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        graph.start("attitude_bringup", "bag_recorder", "recorder", [
+            "-p", f"output_dir:={tmp / 'bag'}",
+            "-p", f"stop_on_planner_status:=[{','.join(STOP_STATUSES)}]",
+            "-p", f"scenario_file:={tmp / 'scenario.yaml'}"])
+        graph.start("attitude_planner", "fepf_planner", "planner", params)
+        graph.start("attitude_controller", "pd_controller", "controller", params)
+        graph.start("spacecraft_sim", "rigid_body_sim", "simulator", params + [
+            "-p", f"time_mode:={time_mode}", "-p", "lockstep.expected_subscribers:=3"])
+        log(f"attitude-run: {scenario.name}: nodes started ({time_mode}); logs in {out / 'logs'}")
+        while end_reason is None:
+            time.sleep(0.02)
+            exited = graph.exited()
+            if stop_requested:
+                end_reason = failure = "interrupted"
+            elif exited.get("recorder") == 0:
+                end_reason = "planner finished"
+            elif exited.get("simulator") == 0:
+                end_reason = "scenario time ended"
+            elif exited:
+                name, code = next(iter(exited.items()))
+                end_reason = failure = f"{name} exited with code {code}"
+            elif time.monotonic() - wall0 > timeout_s:
+                end_reason = failure = f"timeout after {timeout_s:.0f} s"
+    finally:
+        codes = graph.stop(["simulator", "planner", "controller"])
+        codes.update(graph.stop(["recorder"]))
+        for s, h in handlers.items():
+            signal.signal(s, h)
+    wall_s = time.monotonic() - wall0
+    if failure:
+        for name in graph.exited():
+            if graph.procs[name].returncode not in (0, -signal.SIGINT):
+                log(f"attitude-run: {name} (exit {graph.procs[name].returncode}):\n"
+                    + graph.tail(name))
+    summary = None
+    if (tmp / "bag" / "metadata.yaml").exists():
+        try:
+            bag_run = run_from_bag(str(tmp / "bag"), scenario, wall_time_s=wall_s)
+        except (ValueError, OSError) as err:
+            failure = failure or f"bag unusable: {err}"
+        else:
+            summary = summarize(bag_run.run)
+            span_s = (bag_run.receive_wall_ns[-1] - bag_run.receive_wall_ns[0]) * 1e-9
+            steps = len(bag_run.stamps_ns)
+            summary.update({
+                "time_mode": time_mode,
+                "end_reason": end_reason,
+                "failure": failure,
+                "steps_recorded": steps,
+                "steps_per_s": (steps - 1) / span_s if span_s > 0 else None,
+                "exit_codes": codes,
+            })
+            with open(tmp / "summary.json", "w") as f:
+                json.dump(summary, f, indent=2)
+                f.write("\n")
+    if out.exists():
+        shutil.rmtree(out)
+    os.replace(tmp, out)
+    if summary is None:
+        raise RunError(f"{failure or end_reason}; no usable bag (logs in {out / 'logs'})")
+    return summary, out
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="attitude-run",
+        description="Run a scenario through the ROS 2 nodes (planner, controller, simulator) "
+                    "and record it to a rosbag2 MCAP bag.")
+    parser.add_argument("scenario", help="scenario YAML (ROS 2 parameters file)")
+    parser.add_argument("--out", required=True, help="run directory to write (bag/, logs/, "
+                        "summary.json)")
+    parser.add_argument("--mode", choices=("lockstep", "realtime"), default="lockstep",
+                        help="lockstep simulated time (default) or wall-clock real time")
+    parser.add_argument("--timeout-s", type=float, default=None,
+                        help="wall-time limit (default 120 s, plus 1.5x the scenario time "
+                             "in real time)")
+    parser.add_argument("--workspace", default=None,
+                        help="colcon install/ directory (default: this checkout's ros2_ws/install)")
+    parser.add_argument("--quiet", action="store_true", help="do not print the summary")
+    args = parser.parse_args(argv)
+    log = (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
+    try:
+        summary, out = run_scenario(args.scenario, args.out, args.mode, args.timeout_s,
+                                    args.workspace, log)
+    except ScenarioError as err:
+        print(f"attitude-run: error: {err}", file=sys.stderr)
+        return 2
+    except (FileExistsError, RunError) as err:
+        print(f"attitude-run: error: {err}", file=sys.stderr)
+        return 2 if isinstance(err, FileExistsError) else 1
+    if not args.quiet:
+        print(json.dumps(summary, indent=2))
+    ok = summary["reached"] and summary["min_margin_deg"] > 0.0 and not summary["failure"]
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
