@@ -2,19 +2,22 @@
 
 Records every topic of :mod:`attitude_ros.contract` as raw CDR, exactly as received,
 into ``output_dir`` (``metadata.yaml`` + ``<name>_0.mcap``, storage ``mcap``,
-profile ``ros2``, schemas ``ros2msg``). It subscribes reliable and transient-local, so
-samples published before its subscriptions matched still arrive.
+profile ``ros2``, schemas ``ros2msg``). It subscribes reliable and keep-all, and the
+publishers keep every sample until all readers have it, so a recorder that lags
+behind a lockstep run slows it down instead of losing messages.
 
 Message log times are the message's own stamp (simulated time in lockstep, the state
 clock in real time); unstamped messages (status, margin) get the latest stamp seen,
 so the bag's timeline is the run's timeline. The receive wall time is kept as the
 publish time. The bag is finished on every way out (end, SIGINT, SIGTERM).
 
-Parameters: ``output_dir`` (required); ``stop_on_planner_status`` (statuses of
-``/planner/status`` that end the recording, e.g. ``[arrived, stuck, infeasible]``;
-empty: record until shut down); ``stop_delay_s`` (run time recorded after that
-status, 1 s by default, so the bag shows the arrival settle); ``scenario_file`` (stored in the bag as an MCAP
-attachment ``scenario.yaml``, so a bag alone describes its run).
+Parameters: ``output_dir`` (required); ``stop_on_planner_status`` (planner statuses
+that end the recording, e.g. ``[arrived, stuck, infeasible]``, read from the stamped
+``/diagnostics`` so the stop is exact in run time; empty: record until shut down);
+``stop_delay_s`` (run time recorded after that status, 1 s by default, so the bag shows
+the settle; the recording ends when every stamped topic has passed it);
+``scenario_file`` (stored in the bag as an MCAP attachment ``scenario.yaml``, so a
+bag alone describes its run).
 """
 
 from __future__ import annotations
@@ -23,9 +26,8 @@ import struct
 import time
 
 from rclpy.node import Node
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
-from std_msgs.msg import String
+from diagnostic_msgs.msg import DiagnosticArray
 
 from attitude_core.scenario import ScenarioError
 from attitude_ros import contract as c
@@ -56,10 +58,13 @@ class BagRecorderNode(Node):
             "after a stop status, keep recording this much more run time (stamps), s",
             1.0, value_range=(0.0, 3600.0)))
         self.stop_at_ns = None
+        self.passed_stop: set[str] = set()
+        self.stamped_topics = {t.name for t in c.TOPICS if t.stamped}
         scenario_file = declare(self, "scenario_file", "string",
                                 "scenario file stored in the bag as an attachment", "")
         self.done = False
         self.exit_code = 0
+        self._drain_count = -1
         self.last_stamp_ns = None
         self.writer = BagWriter(self.output_dir)
         if scenario_file:
@@ -68,40 +73,53 @@ class BagRecorderNode(Node):
         for topic in c.TOPICS:
             pub_qos = c.qos(topic)
             self.writer.add_topic(topic.name, topic.type_name, qos_profile_yaml(
-                "reliable", "transient_local", pub_qos.depth))
-            sub_qos = QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=pub_qos.depth,
-                                 reliability=ReliabilityPolicy.RELIABLE,
-                                 durability=DurabilityPolicy.TRANSIENT_LOCAL)
+                "reliable", "transient_local" if topic.latched else "volatile",
+                pub_qos.depth, "keep_last" if topic.latched else "keep_all"))
             self.create_subscription(c.message_class(topic.type_name), topic.name,
-                                     self.callback(topic), sub_qos, raw=True)
+                                     self.callback(topic), c.recorder_qos(topic), raw=True)
         self.get_logger().info(f"recording {len(c.TOPICS)} topics to {self.output_dir}"
                                + (f"; stops on status {sorted(self.stop_on)}" if self.stop_on else ""))
 
     def callback(self, topic):
         name, stamped = topic.name, topic.stamped
-        is_status = name == c.PLANNER_STATUS
+        watch = name == c.DIAGNOSTICS and bool(self.stop_on)
+        markers = tuple(status.encode() for status in self.stop_on)
 
         def on_message(data: bytes) -> None:
-            if self.done:
-                return
             wall = time.time_ns()
             if stamped:
-                log_time = self.last_stamp_ns = _stamp_ns(data)
+                log_time = _stamp_ns(data)
                 if self.stop_at_ns is not None and log_time > self.stop_at_ns:
-                    self.get_logger().info("recording complete")
-                    self.done = True
+                    self.passed_stop.add(name)
+                    if self.passed_stop >= self.stamped_topics:
+                        self.done = True
                     return
+                self.last_stamp_ns = max(log_time, self.last_stamp_ns or log_time)
             else:
                 log_time = wall if self.last_stamp_ns is None else self.last_stamp_ns
             self.writer.write(name, data, log_time, wall)
-            if is_status and self.stop_on:
-                status = deserialize_message(data, String).data
-                if status in self.stop_on and self.stop_at_ns is None:
-                    self.stop_at_ns = log_time + self.stop_delay_ns
-                    self.get_logger().info(
-                        f"planner status {status!r} at {log_time / 1e9:.3f} s: recording "
-                        f"{self.stop_delay_ns / 1e9:g} s more")
+            if watch and self.stop_at_ns is None and any(m in data for m in markers):
+                self.check_stop(data, log_time)
         return on_message
+
+    def check_stop(self, data: bytes, stamp_ns: int) -> None:
+        """A planner diagnostics message whose status ends the recording: stop at its
+        stamp plus ``stop_delay_s``, once every stamped topic has got there."""
+        values = {kv.key: kv.value
+                  for st in deserialize_message(data, DiagnosticArray).status for kv in st.values}
+        status = values.get("status")
+        if status in self.stop_on:
+            self.stop_at_ns = stamp_ns + self.stop_delay_ns
+            self.get_logger().info(
+                f"planner status {status!r} at {stamp_ns / 1e9:.3f} s: recording until "
+                f"{self.stop_at_ns / 1e9:.3f} s")
+
+    def drained(self) -> bool:
+        """True when nothing was written since the previous call (the runner drains the
+        subscription queues on SIGINT/SIGTERM before closing the bag)."""
+        count = self.writer.message_count
+        drained, self._drain_count = count == self._drain_count, count
+        return drained
 
     def close(self) -> None:
         self.writer.close()

@@ -38,8 +38,7 @@ INERTIAL_FRAME = "inertial"   # N
 BODY_FRAME = "body"           # B
 TARGET_FRAME = "target"       # R: the planner's target attitude
 
-# Depth of the reliable publishers' history: deep enough that a recorder lagging by
-# that many steps still receives every sample.
+# Depth of the nodes' subscription queues (keep-last).
 HISTORY_DEPTH = 200
 
 

@@ -10,20 +10,34 @@ from attitude_core.topics import CLOCK, HISTORY_DEPTH, TOPICS, Topic  # noqa: F4
 def qos(topic: Topic | None = None, *, subscriber: bool = False):
     """QoS of a contract topic.
 
-    Publishers: reliable, transient-local, keep-last ``HISTORY_DEPTH`` (depth 1 for
-    latched topics). Subscribers of the nodes: reliable, volatile (a restarted node
-    must not be fed old history); the recorder asks for transient-local itself.
-    A reliable ``/clock`` publisher also serves rclpy's best-effort ``/clock`` listeners.
+    Publishers: reliable, volatile, keep-all: a sample leaves the writer only when every
+    reader has it, so a recorder that falls behind a lockstep run delays it but loses
+    nothing. Latched topics (the planner status): reliable, transient-local, depth 1.
+    Subscribers of the nodes: reliable, volatile, keep-last ``HISTORY_DEPTH`` (a
+    restarted node must not be fed old history); the recorder keeps all. A reliable
+    ``/clock`` publisher also serves rclpy's best-effort ``/clock`` listeners.
     """
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
     latched = topic is not None and topic.latched
+    if latched:
+        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
+                          reliability=ReliabilityPolicy.RELIABLE,
+                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
     return QoSProfile(
-        history=HistoryPolicy.KEEP_LAST,
-        depth=1 if latched else HISTORY_DEPTH,
+        history=HistoryPolicy.KEEP_LAST if subscriber else HistoryPolicy.KEEP_ALL,
+        depth=HISTORY_DEPTH,
         reliability=ReliabilityPolicy.RELIABLE,
-        durability=(DurabilityPolicy.VOLATILE if subscriber and not latched
-                    else DurabilityPolicy.TRANSIENT_LOCAL),
+        durability=DurabilityPolicy.VOLATILE,
     )
+
+
+def recorder_qos(topic: Topic):
+    """QoS of the recorder's subscription: keep-all, and transient-local on latched topics."""
+    from rclpy.qos import HistoryPolicy
+    profile = qos(topic)
+    if not topic.latched:
+        profile.history = HistoryPolicy.KEEP_ALL
+    return profile
 
 
 def message_class(type_name: str):

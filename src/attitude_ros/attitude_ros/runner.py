@@ -2,15 +2,20 @@
 
 ``rclpy.experimental.EventsExecutor`` is several times faster across processes than
 the default executor, but its ``spin()`` does not return on SIGINT/SIGTERM; the loop
-therefore spins once at a time and checks ``rclpy.ok()``.
+therefore spins once at a time. SIGINT and SIGTERM only set a flag that the loop
+checks (rclpy's own handlers would tear the context down under a running callback);
+the node is then closed (a recorder finishes its bag) and rclpy shut down in order.
 """
 
 from __future__ import annotations
 
+import signal
 import sys
+import time
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
+from rclpy.signals import SignalHandlerOptions
 
 from attitude_core.scenario import ScenarioError
 
@@ -22,9 +27,14 @@ def run(node_factory, args=None) -> int:
 
     The node may set ``node.done = True`` to end the loop (end of a scenario) and
     ``node.exit_code``; it may define ``close()``, which runs on every way out
-    (normal end, SIGINT, SIGTERM, exception), e.g. to finish a recording.
+    (normal end, SIGINT, SIGTERM, exception), e.g. to finish a recording, and
+    ``drained()``, polled after SIGINT/SIGTERM while queued messages are still taken.
     """
-    rclpy.init(args=sys.argv if args is None else args)
+    stop = []
+    previous = {s: signal.signal(s, lambda signum, frame: stop.append(signum))
+                for s in (signal.SIGINT, signal.SIGTERM)}
+    rclpy.init(args=sys.argv if args is None else args,
+               signal_handler_options=SignalHandlerOptions.NO)
     node = None
     code = EXIT_OK
     try:
@@ -32,14 +42,13 @@ def run(node_factory, args=None) -> int:
         from rclpy.experimental import EventsExecutor
         executor = EventsExecutor()
         executor.add_node(node)
-        while rclpy.ok() and not getattr(node, "done", False):
-            try:
-                executor.spin_once(timeout_sec=0.1)
-            except RuntimeError:
-                # The events executor can raise while SIGINT/SIGTERM tears the context
-                # down under it; that is a shutdown, not a failure.
-                if rclpy.ok():
-                    raise
+        while not stop and rclpy.ok() and not getattr(node, "done", False):
+            executor.spin_once(timeout_sec=0.1)
+        drained = getattr(node, "drained", None)
+        if stop and drained is not None:  # take what is already queued, for up to 5 s
+            deadline = time.monotonic() + 5.0
+            while rclpy.ok() and time.monotonic() < deadline and not drained():
+                executor.spin_once(timeout_sec=0.05)
         code = getattr(node, "exit_code", EXIT_OK)
     except ScenarioError as err:
         name = "node" if node is None else node.get_name()
@@ -55,4 +64,6 @@ def run(node_factory, args=None) -> int:
             node.destroy_node()
         if rclpy.ok():
             rclpy.shutdown()
+        for s, handler in previous.items():
+            signal.signal(s, handler)
     return code

@@ -78,24 +78,28 @@ class BagMessage(NamedTuple):
     msg: Any
 
 
-def qos_profile_yaml(reliability: str, durability: str, depth: int) -> str:
+def qos_profile_yaml(reliability: str, durability: str, depth: int,
+                     history: str = "keep_last") -> str:
     """One offered QoS profile as Jazzy's rosbag2 serializes it (a YAML list of one).
 
     ``reliability``: ``'reliable'`` or ``'best_effort'``; ``durability``:
     ``'volatile'`` or ``'transient_local'`` (``'system_default'`` and
-    ``'best_available'`` are accepted too); history is ``keep_last`` of ``depth``;
+    ``'best_available'`` are accepted too); ``history``: ``'keep_last'`` (of ``depth``)
+    or ``'keep_all'``;
     deadline, lifespan and liveliness lease are infinite, liveliness automatic.
     """
     if reliability not in _RELIABILITY:
         raise ValueError(f"reliability must be one of {_RELIABILITY}, not {reliability!r}")
     if durability not in _DURABILITY:
         raise ValueError(f"durability must be one of {_DURABILITY}, not {durability!r}")
+    if history not in ("keep_last", "keep_all"):
+        raise ValueError(f"history must be keep_last or keep_all, not {history!r}")
     if isinstance(depth, bool) or not isinstance(depth, int) or depth < 0:
         raise ValueError(f"depth must be an int >= 0, not {depth!r}")
     sec, nsec = RMW_DURATION_INFINITE["sec"], RMW_DURATION_INFINITE["nsec"]
     infinite = f"\n    sec: {sec}\n    nsec: {nsec}"
     return (
-        f"- history: keep_last\n"
+        f"- history: {history}\n"
         f"  depth: {depth}\n"
         f"  reliability: {reliability}\n"
         f"  durability: {durability}\n"

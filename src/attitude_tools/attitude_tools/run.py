@@ -3,8 +3,9 @@
 Starts the recorder, the planner, the controller and the simulator as separate
 processes with ``ros2 run <package> <executable> --ros-args ...`` (the real ROS 2 CLI
 where one is installed, else the project's ``ros2 run`` shim), waits until the
-planner reports arrived, stuck or infeasible (the recorder then closes the bag), or
-the scenario time ends, or a process fails; stops every process (SIGINT, then wait,
+planner reports arrived, stuck or infeasible (the recorder then records ``--settle-s``
+more run time, default 10 s, and closes the bag), or the scenario time ends, or a
+process fails; stops every process (SIGINT, then wait,
 SIGKILL after a grace period), rebuilds the run from the bag alone and writes
 ``DIR/summary.json`` (the offline runner's fields plus the ROS run's own),
 ``DIR/bag/`` and ``DIR/logs/``. Exit code: 0 reached without violation, 1 otherwise
@@ -133,7 +134,7 @@ class NodeGraph:
 
 def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
                  timeout_s: float | None = None, workspace: str | None = None,
-                 log=print) -> tuple[dict, Path]:
+                 settle_s: float = 10.0, log=print) -> tuple[dict, Path]:
     """Run one scenario through the node graph; return (summary, run directory)."""
     wall0 = time.monotonic()
     scenario = load_scenario(scenario_path)
@@ -160,6 +161,7 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
         graph.start("attitude_bringup", "bag_recorder", "recorder", [
             "-p", f"output_dir:={tmp / 'bag'}",
             "-p", f"stop_on_planner_status:=[{','.join(STOP_STATUSES)}]",
+            "-p", f"stop_delay_s:={float(settle_s)!r}",
             "-p", f"scenario_file:={tmp / 'scenario.yaml'}"])
         graph.start("attitude_planner", "fepf_planner", "planner", params)
         graph.start("attitude_controller", "pd_controller", "controller", params)
@@ -233,6 +235,9 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout-s", type=float, default=None,
                         help="wall-time limit (default 120 s, plus 1.5x the scenario time "
                              "in real time)")
+    parser.add_argument("--settle-s", type=float, default=10.0,
+                        help="run time recorded after the planner reports arrived, stuck or "
+                             "infeasible, s (default 10: the body settles on the goal)")
     parser.add_argument("--workspace", default=None,
                         help="colcon install/ directory (default: this checkout's ros2_ws/install)")
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
@@ -240,7 +245,7 @@ def main(argv=None) -> int:
     log = (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
     try:
         summary, out = run_scenario(args.scenario, args.out, args.mode, args.timeout_s,
-                                    args.workspace, log)
+                                    args.workspace, args.settle_s, log)
     except ScenarioError as err:
         print(f"attitude-run: error: {err}", file=sys.stderr)
         return 2
