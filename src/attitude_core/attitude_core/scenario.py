@@ -440,16 +440,17 @@ def _is_ros_builtin(key: str) -> bool:
     return key in _ROS_BUILTIN_BOOLS or key.startswith("qos_overrides.")
 
 
-def parse_scenario(params: dict, source: str = "<dict>") -> Scenario:
+def parse_scenario(params: dict, source: str = "<dict>", base_dir=None) -> Scenario:
     """Validate a ``ros__parameters`` mapping (nested or dotted) and build a :class:`Scenario`.
 
-    Relative data-file paths are resolved against the directory of ``source``.
+    Relative data-file paths are resolved against ``base_dir`` (default: the directory
+    of ``source``).
     """
     if not isinstance(params, dict):
         raise ScenarioError(source, None,
                             f"ros__parameters must be a mapping, got {_type_name(params)}")
     flat = flatten_parameters(params, source)
-    base_dir = Path(source).parent
+    base_dir = Path(source).parent if base_dir is None else Path(base_dir)
     values: dict[str, Any] = {}
 
     def convert(field: _Field, key: str, default: Any = None) -> Any:

@@ -3,10 +3,16 @@
 Every key of :func:`attitude_core.scenario.parameter_specs` is declared up front with a
 read-only descriptor (type, description, range). Keys without a value in the
 parameters file are left unset so that the one scenario loader supplies its defaults;
-the values are then validated by :func:`attitude_core.scenario.parse_scenario`.
+the values are then validated by :func:`attitude_core.scenario.parse_scenario`, with
+every parameter given to the node that no one declared (a typo) so that the loader
+refuses it as it refuses it in a file. Relative data-file paths are resolved against
+the node's working directory (``attitude-run`` starts the nodes in the scenario's
+directory, so they resolve as :func:`~attitude_core.scenario.load_scenario` resolves them).
 """
 
 from __future__ import annotations
+
+import os
 
 from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType
 from rclpy.exceptions import ParameterUninitializedException
@@ -59,7 +65,8 @@ def _plain(value):
 def declare_scenario(node) -> Scenario:
     """Declare every scenario parameter on ``node`` and return the validated scenario.
 
-    Raises :class:`ScenarioError` (naming the key) on a missing or invalid value.
+    Call it after the node's own parameters are declared. Raises
+    :class:`ScenarioError` (naming the key) on a missing, unknown or invalid value;
     rclpy's own exceptions on a value of the wrong type are turned into one too.
     """
     source = f"node '{node.get_fully_qualified_name()}' parameters"
@@ -83,4 +90,9 @@ def declare_scenario(node) -> Scenario:
     for spec in parameter_specs(instruments, objects):
         if spec.name not in (s.name for s in name_specs):
             declare_spec(spec)
-    return parse_scenario(flat, source)
+    # Parameters given to this node (file or -p) that nothing declared: typos.
+    overrides = getattr(node, "_parameter_overrides", {})  # rclpy keeps no public getter
+    for name, parameter in overrides.items():
+        if not node.has_parameter(name):
+            flat[name] = _plain(parameter.value)
+    return parse_scenario(flat, source, base_dir=os.getcwd())

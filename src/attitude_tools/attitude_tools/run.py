@@ -98,15 +98,16 @@ def _is_previous_run(path: Path) -> bool:
 class NodeGraph:
     """The four node processes of one run, with their logs."""
 
-    def __init__(self, ros2: str, env: dict[str, str], log_dir: Path) -> None:
-        self.ros2, self.env, self.log_dir = ros2, env, log_dir
+    def __init__(self, ros2: str, env: dict[str, str], log_dir: Path, cwd: Path) -> None:
+        self.ros2, self.env, self.log_dir, self.cwd = ros2, env, log_dir, cwd
         self.procs: dict[str, subprocess.Popen] = {}
 
     def start(self, package: str, executable: str, name: str, ros_args: list[str]) -> None:
         log = open(self.log_dir / f"{name}.log", "wb")
         self.procs[name] = subprocess.Popen(
             [self.ros2, "run", package, executable, "--ros-args", *ros_args],
-            env=self.env, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+            env=self.env, cwd=self.cwd, stdout=log, stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
             start_new_session=True)  # we, not the terminal, decide the shutdown order
         log.close()
 
@@ -152,7 +153,8 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
     (tmp / "logs").mkdir()
     shutil.copyfile(scenario_path, tmp / "scenario.yaml")
     params = ["--params-file", str(Path(scenario_path).resolve())]
-    graph = NodeGraph(ros2, env, tmp / "logs")
+    # In the scenario's directory: relative data paths resolve as load_scenario does.
+    graph = NodeGraph(ros2, env, tmp / "logs", Path(scenario_path).resolve().parent)
     end_reason, failure = None, None
     stop_requested = []
     handlers = {s: signal.signal(s, lambda n, f: stop_requested.append(n))

@@ -48,7 +48,6 @@ LOCKSTEP, REALTIME = "lockstep", "realtime"
 class RigidBodySimNode(Node):
     def __init__(self) -> None:
         super().__init__("rigid_body_sim")
-        self.scenario = sc = declare_scenario(self)
         self.time_mode = declare(self, "time_mode", "string",
                                  "lockstep (sim time, waits for each torque) or realtime", LOCKSTEP)
         if self.time_mode not in (LOCKSTEP, REALTIME):
@@ -71,6 +70,7 @@ class RigidBodySimNode(Node):
             "give up when the graph is not connected after this wall time, s",
             60.0, value_range=(0.0, 3600.0))
 
+        self.scenario = sc = declare_scenario(self)  # after the node's own parameters
         self.body = RigidBody(sc.inertia_kgm2, sc.initial_mrp, sc.initial_rate_rad_s)
         self.dt_ns = int(round(sc.dt_s * NS_PER_S))
         self.n_steps = sc.n_steps
