@@ -5,11 +5,18 @@ For each stamp it waits for the four inputs of that stamp, ``/spacecraft/attitud
 then publishes ``/controller/torque`` (body axes, N m) with the same stamp:
 ``u = -Kp sigma_B/R - Kd (omega_B - C_BR omega_t)`` (paper eq. 11, ``Kp = kp_over_j J``,
 ``Kd = kd_over_j J``). Matching by stamp makes the answer the same in lockstep, in real
-time and behind a hardware bridge. Messages with non-finite values or an unusable
-quaternion are rejected, logged and counted, never turned into torque.
+time and behind a hardware bridge. Messages with non-finite values, an unusable
+quaternion or a stamp older than the last torque are rejected, logged and counted,
+never turned into torque.
+
+``fault.drop_torque_fraction`` (test mode, default 0) drops that fraction of the torque
+messages (seeded by ``fault.seed``), to test that a lossy link neither deadlocks a
+lockstep run nor breaks a constraint.
 """
 
 from __future__ import annotations
+
+import random
 
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
 from rclpy.node import Node
@@ -18,7 +25,7 @@ from attitude_core.control import PdGains, pd_torque
 from attitude_ros import contract as c
 from attitude_ros.convert import (bad_quaternion, bad_vector, mrp_from_quaternion,
                                   set_vector3, stamp_ns, vector3)
-from attitude_ros.params import declare_scenario
+from attitude_ros.params import declare, declare_scenario
 from attitude_ros.runner import run
 
 _PENDING_MAX = 64  # stamps kept while waiting for their other inputs
@@ -29,6 +36,12 @@ class PdControllerNode(Node):
 
     def __init__(self) -> None:
         super().__init__("pd_controller")
+        self.drop_fraction = declare(
+            self, "fault.drop_torque_fraction", "double",
+            "test mode: fraction of torque messages dropped", 0.0, value_range=(0.0, 0.9))
+        self.rng = random.Random(declare(self, "fault.seed", "integer",
+                                         "test mode: seed of the drops", 0))
+        self.dropped = 0
         self.scenario = declare_scenario(self)
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
         self.pending: dict[int, list] = {}
@@ -64,9 +77,14 @@ class PdControllerNode(Node):
             stamp = stamp_ns(msg.header.stamp)
             if stamp in self.answered:  # lockstep re-send: answer again, identically
                 if slot == 0:
-                    self.pub_torque.publish(self.answered[stamp])
+                    self.publish(self.answered[stamp])
                 return
-            value, reason = convert(msg)
+            last = next(iter(self.answered), None)
+            reason = None
+            if last is not None and stamp < last:
+                reason = f"stamp {stamp} ns is older than the last torque's {last} ns"
+            else:
+                value, reason = convert(msg)
             if reason:
                 self.rejected += 1
                 self.get_logger().warning(f"rejected {name} message ({self.rejected} so far): "
@@ -87,10 +105,16 @@ class PdControllerNode(Node):
         out.header.stamp = stamp_msg
         out.header.frame_id = c.BODY_FRAME
         set_vector3(out.wrench.torque, u)
-        self.pub_torque.publish(out)
+        self.publish(out)
         for old in [s for s in self.pending if s <= stamp]:
             del self.pending[old]
         self.answered = {stamp: out}
+
+    def publish(self, out: WrenchStamped) -> None:
+        if self.drop_fraction and self.rng.random() < self.drop_fraction:
+            self.dropped += 1
+            return
+        self.pub_torque.publish(out)
 
 
 def main(args=None) -> int:

@@ -15,6 +15,7 @@ topic                               type                             publisher
 ``/planner/keep_out_margin_deg``    std_msgs/msg/Float64             planner
 ``/diagnostics``                    diagnostic_msgs/msg/DiagnosticArray  planner
 ``/controller/torque``              geometry_msgs/msg/WrenchStamped  controller
+``/spacecraft/applied_torque``      geometry_msgs/msg/WrenchStamped  simulator
 ==================================  ===============================  ==========================
 
 Every stamped message of one step carries the stamp of the state it answers.
@@ -33,6 +34,7 @@ PLANNER_STATUS = "/planner/status"
 KEEP_OUT_MARGIN = "/planner/keep_out_margin_deg"
 DIAGNOSTICS = "/diagnostics"
 TORQUE = "/controller/torque"
+APPLIED_TORQUE = "/spacecraft/applied_torque"   # what the simulator applied over the step
 
 INERTIAL_FRAME = "inertial"   # N
 BODY_FRAME = "body"           # B
@@ -59,4 +61,5 @@ TOPICS = (
     Topic(KEEP_OUT_MARGIN, "std_msgs/msg/Float64", False),
     Topic(DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray", True),
     Topic(TORQUE, "geometry_msgs/msg/WrenchStamped", True),
+    Topic(APPLIED_TORQUE, "geometry_msgs/msg/WrenchStamped", True),
 )

@@ -1,10 +1,12 @@
 """A run rebuilt from its recording alone: bag directory -> ``RunResult``.
 
 Step ``k`` of the run is a state stamp for which the bag holds the attitude, the body
-rate, the planner's target (MRP and rate) and the controller's torque, all with that
-stamp. Re-sent messages (same topic, same stamp) count once. Steps are taken in stamp
-order up to the first incomplete one, so the result is the same as the offline
-runner's ``RunResult`` for the recorded span. ``t`` is relative to the first stamp.
+rate and the torque applied over the step (the simulator's ``applied_torque``; the
+controller's torque where a bag has none), all with that stamp. Re-sent messages
+(same topic, same stamp) count once. Steps are taken in stamp order up to the first
+incomplete one, so the result is the same as the offline runner's ``RunResult`` for
+the recorded span. A step without a planner target (the planner was down) has NaN
+target rows. ``t`` is relative to the first stamp.
 """
 
 from __future__ import annotations
@@ -16,12 +18,13 @@ import numpy as np
 from attitude_core.mrp import mrp_from_quat
 from attitude_core.offline import STATUS_CODES, RunResult
 from attitude_core.scenario import Scenario, loads_scenario
-from attitude_core.topics import (ANGULAR_VELOCITY, ATTITUDE, DIAGNOSTICS, TARGET_MRP,
-                                  TARGET_RATE, TORQUE)
+from attitude_core.topics import (ANGULAR_VELOCITY, APPLIED_TORQUE, ATTITUDE, DIAGNOSTICS,
+                                  TARGET_MRP, TARGET_RATE, TORQUE)
 
 from .bag import read_attachment, read_bag
 
-_STEP_TOPICS = (ATTITUDE, ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE, TORQUE)
+_TOPICS = (ATTITUDE, ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE, TORQUE, APPLIED_TORQUE,
+           DIAGNOSTICS)
 
 
 @dataclass
@@ -51,7 +54,7 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
     """Rebuild the sampled trajectory of a recorded run (see module docstring)."""
     if scenario is None:
         scenario = scenario_from_bag(bag_dir)
-    by_topic: dict[str, dict[int, object]] = {t: {} for t in _STEP_TOPICS + (DIAGNOSTICS,)}
+    by_topic: dict[str, dict[int, object]] = {t: {} for t in _TOPICS}
     wall: dict[int, int] = {}
     for m in read_bag(bag_dir, list(by_topic)):
         stamp = _stamp(m.msg)
@@ -59,15 +62,21 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
         if m.topic == ATTITUDE:
             wall.setdefault(stamp, m.publish_time_ns)
     states = sorted(by_topic[ATTITUDE])
+    applied = by_topic[APPLIED_TORQUE]
+    torque = {s: applied.get(s, by_topic[TORQUE].get(s)) for s in states}
     n = 0
-    while n < len(states) and all(states[n] in by_topic[t] for t in _STEP_TOPICS):
+    while (n < len(states) and states[n] in by_topic[ANGULAR_VELOCITY]
+           and torque[states[n]] is not None):
         n += 1
     if n == 0:
-        raise ValueError(f"{bag_dir}: no complete step (state, target and torque of one stamp)")
+        raise ValueError(f"{bag_dir}: no complete step (state and torque of one stamp)")
     stamps = np.array(states[:n], dtype=np.int64)
+    nan3 = (np.nan, np.nan, np.nan)
 
     def rows(topic, get):
-        return np.array([get(by_topic[topic][s]) for s in states[:n]], dtype=float)
+        found = by_topic[topic]
+        return np.array([get(found[s]) if s in found else nan3 for s in states[:n]],
+                        dtype=float)
 
     quat = rows(ATTITUDE, lambda m: (m.quaternion.x, m.quaternion.y, m.quaternion.z,
                                      m.quaternion.w))
@@ -87,7 +96,7 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
         t=(stamps - stamps[0]) * 1e-9,
         sigma_bn=mrp_from_quat(quat),
         omega_b=rows(ANGULAR_VELOCITY, lambda m: _xyz(m.vector)),
-        torque_b=rows(TORQUE, lambda m: _xyz(m.wrench.torque)),
+        torque_b=np.array([_xyz(torque[s].wrench.torque) for s in states[:n]], dtype=float),
         sigma_t=rows(TARGET_MRP, lambda m: _xyz(m.vector)),
         omega_t=rows(TARGET_RATE, lambda m: _xyz(m.vector)),
         obstacle_distance_mrp=d_obs,

@@ -135,8 +135,15 @@ class NodeGraph:
 
 def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
                  timeout_s: float | None = None, workspace: str | None = None,
-                 settle_s: float = 10.0, log=print) -> tuple[dict, Path]:
-    """Run one scenario through the node graph; return (summary, run directory)."""
+                 settle_s: float = 10.0, log=print,
+                 node_params: dict[str, list[str]] | None = None) -> tuple[dict, Path]:
+    """Run one scenario through the node graph; return (summary, run directory).
+
+    ``node_params`` maps a node's log name (recorder, planner, controller, simulator)
+    to extra ``NAME:=VALUE`` parameters for it.
+    """
+    extra = {name: [arg for p in (node_params or {}).get(name, ()) for arg in ("-p", p)]
+             for _, _, name in NODES}
     wall0 = time.monotonic()
     scenario = load_scenario(scenario_path)
     out = Path(out_dir).resolve()
@@ -164,11 +171,13 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
             "-p", f"output_dir:={tmp / 'bag'}",
             "-p", f"stop_on_planner_status:=[{','.join(STOP_STATUSES)}]",
             "-p", f"stop_delay_s:={float(settle_s)!r}",
-            "-p", f"scenario_file:={tmp / 'scenario.yaml'}"])
-        graph.start("attitude_planner", "fepf_planner", "planner", params)
-        graph.start("attitude_controller", "pd_controller", "controller", params)
+            "-p", f"scenario_file:={tmp / 'scenario.yaml'}"] + extra["recorder"])
+        graph.start("attitude_planner", "fepf_planner", "planner", params + extra["planner"])
+        graph.start("attitude_controller", "pd_controller", "controller",
+                    params + extra["controller"])
         graph.start("spacecraft_sim", "rigid_body_sim", "simulator", params + [
-            "-p", f"time_mode:={time_mode}", "-p", "lockstep.expected_subscribers:=3"])
+            "-p", f"time_mode:={time_mode}", "-p", "lockstep.expected_subscribers:=3"]
+            + extra["simulator"])
         log(f"attitude-run: {scenario.name}: nodes started ({time_mode}); logs in {out / 'logs'}")
         while end_reason is None:
             time.sleep(0.02)
@@ -242,12 +251,22 @@ def main(argv=None) -> int:
                              "infeasible, s (default 10: the body settles on the goal)")
     parser.add_argument("--workspace", default=None,
                         help="colcon install/ directory (default: this checkout's ros2_ws/install)")
+    parser.add_argument("--param", action="append", default=[], metavar="NODE:NAME:=VALUE",
+                        help="extra parameter for one node (recorder, planner, controller, "
+                             "simulator), e.g. simulator:lockstep.torque_timeout_s:=0.5")
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
     args = parser.parse_args(argv)
+    node_params: dict[str, list[str]] = {}
+    for item in args.param:
+        node, _, assignment = item.partition(":")
+        if node not in {name for _, _, name in NODES} or ":=" not in assignment:
+            parser.error(f"--param {item!r}: expected NODE:NAME:=VALUE with NODE one of "
+                         f"{[name for _, _, name in NODES]}")
+        node_params.setdefault(node, []).append(assignment)
     log = (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
     try:
         summary, out = run_scenario(args.scenario, args.out, args.mode, args.timeout_s,
-                                    args.workspace, args.settle_s, log)
+                                    args.workspace, args.settle_s, log, node_params)
     except ScenarioError as err:
         print(f"attitude-run: error: {err}", file=sys.stderr)
         return 2

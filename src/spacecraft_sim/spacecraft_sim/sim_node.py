@@ -6,7 +6,10 @@ same stamp: ``/clock`` (simulated time ``k dt``), ``/spacecraft/attitude``
 (``geometry_msgs/QuaternionStamped``, body orientation in the inertial frame, x, y, z,
 w, frame ``inertial``) and ``/spacecraft/angular_velocity``
 (``geometry_msgs/Vector3Stamped``, ``omega_BN`` in body axes, rad/s, frame ``body``).
-It consumes ``/controller/torque`` (``geometry_msgs/WrenchStamped``, body axes, N m).
+It consumes ``/controller/torque`` (``geometry_msgs/WrenchStamped``, body axes, N m)
+and publishes the torque it applied over ``[t_k, t_k+1)`` on
+``/spacecraft/applied_torque``, stamped ``k`` (the commanded one, or a held or zero
+torque after a timeout), so a recording shows what the body felt.
 
 Time modes (parameter ``time_mode``):
 
@@ -15,9 +18,15 @@ Time modes (parameter ``time_mode``):
   arrived, so a run goes as fast as DDS allows and is the same every time. The state
   is re-sent every ``lockstep.resend_period_s`` while the torque is missing (the
   planner and controller answer a repeated stamp identically); after
-  ``lockstep.torque_timeout_s`` the last torque is held, with a warning.
+  ``lockstep.torque_timeout_s`` the last torque is held for the step, with a warning,
+  for at most ``lockstep.max_held_steps`` steps in a row; then the torque is stale and
+  zero torque is applied (logged) until a controller answers again.
 * ``realtime``: a wall-clock timer steps every ``dt_s`` with the latest torque held,
-  as a hardware bridge would; stamps are the node's clock.
+  as a hardware bridge would; stamps are the node's clock. A torque older than
+  ``realtime.torque_stale_s`` (wall time since it arrived) is stale: zero torque.
+
+Torques with non-finite values, or (real time) stamped before the torque already
+applied, are rejected, logged and counted.
 
 Before the first step it waits until the graph is connected: ``lockstep.expected_subscribers``
 listeners on the state topics (planner, controller, and a recorder if any) and a torque
@@ -65,6 +74,13 @@ class RigidBodySimNode(Node):
             self, "lockstep.torque_timeout_s", "double",
             "hold the last torque and advance after this wall time without torque, s",
             2.0, value_range=(0.001, 600.0))
+        self.max_held_steps = declare(
+            self, "lockstep.max_held_steps", "integer",
+            "steps in a row the last torque is held after timeouts before zero torque", 1)
+        self.torque_stale_s = declare(
+            self, "realtime.torque_stale_s", "double",
+            "real time: a torque older than this (wall time since arrival) is stale, s",
+            0.5, value_range=(0.0, 3600.0))
         self.startup_timeout_s = declare(
             self, "startup_timeout_s", "double",
             "give up when the graph is not connected after this wall time, s",
@@ -79,6 +95,10 @@ class RigidBodySimNode(Node):
         self.waiting_stamp = None
         self.sent_at = self.first_sent_at = 0.0
         self.resends = self.timeouts = self.rejected = 0
+        self.held_steps = 0            # lockstep: consecutive timed-out steps
+        self.torque_stamp = -1         # stamp of the torque applied last (real time)
+        self.torque_received_at = None
+        self.stale = False
         self.done = False
         self.exit_code = 0
         self.wall_start = None
@@ -88,6 +108,10 @@ class RigidBodySimNode(Node):
                                              c.qos(c.topic(c.ATTITUDE)))
         self.pub_rate = self.create_publisher(Vector3Stamped, c.ANGULAR_VELOCITY,
                                               c.qos(c.topic(c.ANGULAR_VELOCITY)))
+        self.pub_applied = self.create_publisher(WrenchStamped, c.APPLIED_TORQUE,
+                                                 c.qos(c.topic(c.APPLIED_TORQUE)))
+        self.msg_applied = WrenchStamped()
+        self.msg_applied.header.frame_id = c.BODY_FRAME
         self.sub_torque = self.create_subscription(
             WrenchStamped, c.TORQUE, self.on_torque, c.qos(c.topic(c.TORQUE), subscriber=True))
         self.msg_clock, self.msg_att, self.msg_rate = ClockMsg(), QuaternionStamped(), Vector3Stamped()
@@ -158,10 +182,17 @@ class RigidBodySimNode(Node):
         self.waiting_stamp = stamp
         self.sent_at = self.first_sent_at = time.monotonic()
 
+    def publish_applied(self, torque) -> None:
+        """The torque applied from the state last published to the next one."""
+        self.msg_applied.header.stamp = self.msg_att.header.stamp
+        set_vector3(self.msg_applied.wrench.torque, torque)
+        self.pub_applied.publish(self.msg_applied)
+
     def advance(self, torque) -> None:
         """Lockstep: the torque for step k is known; integrate to k + 1 and publish it."""
         self.torque = torque
         self.waiting_stamp = None
+        self.publish_applied(torque)
         if self.k >= self.n_steps:
             self.finish(0)
             return
@@ -169,18 +200,38 @@ class RigidBodySimNode(Node):
         self.k += 1
         self.publish_state()
 
+    def reject(self, reason: str) -> None:
+        self.rejected += 1
+        self.get_logger().warning(f"rejected {c.TORQUE} message ({self.rejected} so far): "
+                                  f"{reason}", throttle_duration_sec=1.0)
+
     def on_torque(self, msg: WrenchStamped) -> None:
         u = vector3(msg.wrench.torque)
         reason = bad_vector(u, "torque")
         if reason:
-            self.rejected += 1
-            self.get_logger().warning(f"rejected {c.TORQUE} message ({self.rejected} so far): "
-                                      f"{reason}", throttle_duration_sec=1.0)
+            self.reject(reason)
             return
+        stamp = stamp_ns(msg.header.stamp)
         if self.time_mode == REALTIME:
-            self.torque = u
-        elif stamp_ns(msg.header.stamp) == self.waiting_stamp:
+            if stamp < self.torque_stamp:
+                self.reject(f"stamp {stamp} ns is older than the applied torque's "
+                            f"{self.torque_stamp} ns")
+                return
+            self.torque, self.torque_stamp = u, stamp
+            self.torque_received_at = time.monotonic()
+            self.set_stale(False)
+        elif stamp == self.waiting_stamp:
+            self.held_steps = 0
+            self.set_stale(False)
             self.advance(u)
+
+    def set_stale(self, stale: bool) -> None:
+        if stale and not self.stale:
+            self.get_logger().error("torque is stale: applying zero torque until a "
+                                    "controller answers again")
+        elif self.stale and not stale:
+            self.get_logger().info("torque received again")
+        self.stale = stale
 
     def check_torque_deadline(self) -> None:
         if self.waiting_stamp is None or self.done:
@@ -188,9 +239,14 @@ class RigidBodySimNode(Node):
         now = time.monotonic()
         if now - self.first_sent_at > self.torque_timeout_s:
             self.timeouts += 1
-            self.get_logger().warning(
-                f"no torque for step {self.k} after {self.torque_timeout_s} s; "
-                f"holding the last torque {self.torque.tolist()} N m")
+            self.held_steps += 1
+            if self.held_steps > self.max_held_steps:
+                self.set_stale(True)
+                self.torque = np.zeros(3)
+            else:
+                self.get_logger().warning(
+                    f"no torque for step {self.k} after {self.torque_timeout_s} s; "
+                    f"holding the last torque {self.torque.tolist()} N m")
             self.advance(self.torque)
         elif now - self.sent_at > self.resend_period_s:
             self.resends += 1
@@ -203,10 +259,21 @@ class RigidBodySimNode(Node):
         if self.k > self.n_steps:
             self.finish(0)
             return
+        if (self.torque_received_at is not None
+                and time.monotonic() - self.torque_received_at > self.torque_stale_s):
+            self.set_stale(True)
+            self.torque = np.zeros(3)
+            self.torque_received_at = None
         if self.k > 0:
+            self.publish_applied(self.torque)
             self.body.step(self.torque, self.scenario.dt_s)
         self.publish_state()
         self.k += 1
+
+    def close(self) -> None:
+        self.get_logger().info(
+            f"stopped at step {self.k}: {self.resends} state re-sends, {self.timeouts} torque "
+            f"timeouts, {self.rejected} rejected torques")
 
     def finish(self, code: int) -> None:
         if self.done:
