@@ -327,8 +327,11 @@ def _float(v: Any, what: str = "") -> float:
     if type(v) is not float:
         hint = ""
         if type(v) is int:
-            hint = (f"; write it as a YAML float, e.g. {float(v)!r} "
-                    "(ROS 2 parameters are strongly typed)")
+            try:
+                hint = (f"; write it as a YAML float, e.g. {float(v)!r} "
+                        "(ROS 2 parameters are strongly typed)")
+            except OverflowError:  # beyond the range of a double: no float to suggest
+                pass
         elif isinstance(v, str):
             try:
                 hint = f"; write it as a YAML float, e.g. {float(v)!r}"
@@ -554,6 +557,10 @@ def loads_scenario(text: str, source: str = "<text>") -> Scenario:
         kind = "invalid YAML" if duplicate else "YAML syntax error"
         message = str(exc).replace('in "<unicode string>", ', "")
         raise ScenarioError(source, None, f"{kind}: {message}") from exc
+    except (ValueError, TypeError, KeyError, AttributeError, RecursionError) as exc:
+        # PyYAML's constructors of explicit tags (``!!float abc``, ``!!bool maybe``) and
+        # its recursive composer (very deep nesting) raise these, not a YAMLError.
+        raise ScenarioError(source, None, f"invalid YAML: {type(exc).__name__}: {exc}") from exc
     if doc is None:
         raise ScenarioError(source, None, "file is empty")
     if (not isinstance(doc, dict) or list(doc) != ["/**"] or not isinstance(doc["/**"], dict)

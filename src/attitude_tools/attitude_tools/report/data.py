@@ -1,0 +1,105 @@
+"""A recorded run for the report: rebuilt from its bag alone, with its summary figures.
+
+The summary is ``attitude_core.offline.summarize`` of the run rebuilt by
+``attitude_tools.bag_run.run_from_bag`` (what ``attitude-run`` computes for
+``summary.json``), plus the recording's own fields that the bag determines:
+``steps_recorded``, ``steps_per_s`` (recorder receive times) and ``time_mode``
+(``lockstep`` when every state stamp is a ``/clock`` time, ``realtime`` when the
+stamps are wall-clock times, else unknown).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from attitude_core.offline import RunResult, summarize
+from attitude_core.scenario import Scenario
+from attitude_core.topics import CLOCK
+
+from ..bag import read_bag
+from ..bag_run import BagRun, run_from_bag
+
+__all__ = ["ReportRun", "BagError", "load_run", "SUMMARY_KEYS", "PAIR_KEY"]
+
+# The figures the report shows, in table order (``summarize`` names, then the recording's).
+SUMMARY_KEYS = (
+    "scenario", "planner_variant", "time_mode", "reached", "t_reach_s", "t_plan_arrival_s",
+    "planner_stuck", "min_margin_deg", "t_min_margin_s", "min_margin_deg_per_pair",
+    "path_length_mrp", "target_path_length_mrp", "peak_torque_nm", "peak_rate_rad_s",
+    "final_rate_rad_s", "final_attitude_error_deg", "planner_step_us_median",
+    "planner_step_us_p99", "steps_recorded", "steps_per_s", "sim_time_s", "dt_s",
+)
+PAIR_KEY = "min_margin_deg_per_pair"
+
+
+class BagError(Exception):
+    """A run directory whose bag is missing or cannot be read."""
+
+
+@dataclass
+class ReportRun:
+    label: str
+    run_dir: str
+    bag_dir: str
+    bag_run: BagRun
+    summary: dict            # SUMMARY_KEYS, JSON-ready (non-finite floats as None)
+
+    @property
+    def run(self) -> RunResult:
+        return self.bag_run.run
+
+    @property
+    def scenario(self) -> Scenario:
+        return self.bag_run.run.scenario
+
+
+def _json_ready(v):
+    if isinstance(v, dict):
+        return {k: _json_ready(x) for k, x in v.items()}
+    if isinstance(v, (bool, np.bool_)):
+        return bool(v)
+    if isinstance(v, (int, np.integer)):
+        return int(v)
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v
+
+
+def _time_mode(bag_dir: str, stamps_ns: np.ndarray) -> str | None:
+    clock = {m.msg.clock.sec * 1_000_000_000 + m.msg.clock.nanosec
+             for m in read_bag(bag_dir, [CLOCK])}
+    if clock and set(stamps_ns.tolist()) <= clock:
+        return "lockstep"
+    if int(stamps_ns[0]) > 10**18:  # nanoseconds since the epoch (after 2001): wall clock
+        return "realtime"
+    return None
+
+
+def load_run(run_dir: str, label: str | None = None) -> ReportRun:
+    """Rebuild the run of ``run_dir/bag`` from the bag alone; BagError names the path."""
+    bag_dir = os.path.join(os.path.abspath(run_dir), "bag")
+    if not os.path.isdir(bag_dir):
+        raise BagError(f"no bag directory at {bag_dir}")
+    try:
+        bag_run = run_from_bag(bag_dir)
+        time_mode = _time_mode(bag_dir, bag_run.stamps_ns)
+    except Exception as err:  # noqa: BLE001 - any reader failure: one clear message
+        raise BagError(f"cannot read the bag at {bag_dir}: {err}") from err
+    full = summarize(bag_run.run)
+    wall = bag_run.receive_wall_ns
+    span_s = (int(wall[-1]) - int(wall[0])) * 1e-9
+    steps = len(bag_run.stamps_ns)
+    full.update({
+        "time_mode": time_mode,
+        "steps_recorded": steps,
+        "steps_per_s": (steps - 1) / span_s if span_s > 0 else None,
+    })
+    summary = _json_ready({k: full[k] for k in SUMMARY_KEYS})
+    sc = bag_run.run.scenario
+    if label is None:
+        label = f"{sc.name} ({sc.planner.variant})"
+    return ReportRun(label, os.path.abspath(run_dir), bag_dir, bag_run, summary)

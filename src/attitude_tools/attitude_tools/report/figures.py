@@ -1,0 +1,521 @@
+"""The report's PNG figures (matplotlib, Agg backend), for one run or two overlaid.
+
+The paper's simulation section shows the keep-out cones in the inertial frame and as
+regions in MRP space (its Fig. "Keep-Out Constraints"), the MRP trajectory among the
+regions and the boresight trajectory on the right ascension / declination plane
+("Trajectory" figures), and the time histories of the MRPs, the angular velocity and
+the torque ("Time History of the States"). ``FIGURES`` lists them, plus the keep-out
+margin against time.
+"""
+
+from __future__ import annotations
+
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.colors import LightSource  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
+from matplotlib.patches import Patch  # noqa: E402
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+
+from attitude_core.metrics import arrival_time  # noqa: E402
+from attitude_core.mrp import to_principal  # noqa: E402
+
+from .geometry import (Pair, best_view, boresight_inertial, break_jumps,  # noqa: E402
+                       break_wraps, mrp_surface, pair_margin_on_sky, pairs_of, ra_dec_deg,
+                       sky_grid, small_circle)
+
+__all__ = ["FIGURES", "render_figures"]
+
+# file name -> (title, what it shows); the order of the report.
+FIGURES = {
+    "keepout_inertial.png": (
+        "Keep-out cones in the inertial frame",
+        "Each cone (the instrument's half-angle about the bright object) drawn as a true "
+        "small circle on the sky, right ascension / declination (paper: Keep-Out "
+        "Constraints, inertial space)."),
+    "keepout_mrp.png": (
+        "Keep-out regions in MRP space",
+        "Zero level set of the margin of each instrument/object pair inside the unit ball "
+        "|sigma| <= 1 (marching cubes, clipped at the unit sphere, drawn as a wireframe) "
+        "(paper: Keep-Out Constraints, MRP space)."),
+    "trajectory_mrp.png": (
+        "MRP trajectory among the keep-out regions",
+        "Body sigma_BN (solid) and planner target sigma_t (dashed) in MRP space; start "
+        "and goal marked (paper: MRP vector trajectory)."),
+    "trajectory_boresight.png": (
+        "Boresight trajectory on the sky",
+        "Each instrument's boresight C_BN^T s_i on the right ascension / declination "
+        "plane among its keep-out cones; start and goal marked (paper: boresight vector "
+        "trajectory)."),
+    "history_mrp.png": (
+        "Time history of the MRPs",
+        "Components of sigma_BN (solid) and of the target sigma_t (dashed); attitude "
+        "error to the goal (paper: time history, MRPs)."),
+    "history_rate.png": (
+        "Time history of the angular velocity",
+        "Body rate omega_BN components and norm, rad/s (paper: time history, angular "
+        "velocity)."),
+    "history_torque.png": (
+        "Time history of the control torque",
+        "Control torque components (body axes) and norm, N m (paper: time history, "
+        "torque)."),
+    "margin.png": (
+        "Keep-out margin against time",
+        "Angle between boresight and object minus the half-angle, for each "
+        "instrument/object pair; negative is a violation."),
+}
+
+RUN_COLORS = ("tab:blue", "tab:orange")
+PAIR_COLORS = ("tab:red", "tab:purple", "tab:green", "tab:brown", "tab:pink", "tab:olive",
+               "tab:cyan", "tab:gray")
+COMPONENT_COLORS = ("tab:blue", "tab:orange", "tab:green")
+STYLE = {
+    "figure.dpi": 100,
+    "font.size": 10,
+    "axes.titlesize": 11,
+    "axes.labelsize": 10,
+    "legend.fontsize": 9,
+    "axes.grid": True,
+    "grid.alpha": 0.35,
+    "figure.constrained_layout.use": True,
+}
+START = dict(marker="o", markersize=8, markerfacecolor="white", markeredgewidth=1.8,
+             linestyle="none")
+GOAL = dict(marker="D", markersize=7, markeredgecolor="black", markeredgewidth=1.0,
+            linestyle="none")
+
+
+def _pair_label(pair: Pair, n_instruments: int) -> str:
+    if n_instruments == 1:
+        return f"{pair.obj} (half-angle {pair.half_angle_deg:g} deg)"
+    return f"{pair.obj} / {pair.instrument} ({pair.half_angle_deg:g} deg)"
+
+
+class _Context:
+    """What every figure needs: the runs, their distinct cones, colours and names."""
+
+    def __init__(self, runs, mrp_grid: int):
+        self.runs = runs
+        self.pairs = pairs_of([r.scenario for r in runs])
+        self.n_instruments = len({(p.instrument, p.boresight_body, p.half_angle_deg)
+                                  for p in self.pairs})
+        self.pair_color = {p: PAIR_COLORS[k % len(PAIR_COLORS)] for k, p in enumerate(self.pairs)}
+        self.mrp_grid = mrp_grid
+        self._surfaces = None
+        pts = [to_principal(r.run.sigma_bn) for r in runs]
+        pts += [to_principal(np.array([r.scenario.initial_mrp, r.scenario.desired_mrp]))
+                for r in runs]
+        self.view = best_view(np.concatenate(pts))
+        if len(runs) == 1:
+            self.title = runs[0].label
+        else:
+            self.title = " vs ".join(r.label for r in runs)
+
+    def run_color(self, k: int, default: str = "tab:blue") -> str:
+        return RUN_COLORS[k] if len(self.runs) > 1 else default
+
+    @property
+    def compare(self) -> bool:
+        return len(self.runs) > 1
+
+    def surfaces(self):
+        if self._surfaces is None:
+            self._surfaces = [(p, mrp_surface(p, self.mrp_grid)) for p in self.pairs]
+        return self._surfaces
+
+    def instruments(self):
+        """Distinct instruments (name, boresight, half-angle), in order."""
+        seen = []
+        for p in self.pairs:
+            key = (p.instrument, p.boresight_body, p.half_angle_deg)
+            if key not in seen:
+                seen.append(key)
+        return seen
+
+
+# --- sky (right ascension / declination) ----------------------------------------------
+
+
+def _sky_axes(ax) -> None:
+    ax.set_xlim(0.0, 360.0)
+    ax.set_ylim(-90.0, 90.0)
+    ax.set_xticks(np.arange(0, 361, 60))
+    ax.set_yticks(np.arange(-90, 91, 30))
+    ax.set_aspect("equal")
+    ax.set_xlabel("right ascension (deg)")
+    ax.set_ylabel("declination (deg)")
+
+
+_SKY = None
+
+
+def _sky():
+    global _SKY
+    if _SKY is None:
+        _SKY = sky_grid()
+    return _SKY
+
+
+def _draw_cones(ctx: _Context, ax, pairs) -> list:
+    """Filled cones with true-circle outlines and the objects; legend handles."""
+    ra, dec, v = _sky()
+    handles = []
+    objects = {}
+    for p in pairs:
+        color = ctx.pair_color[p]
+        margin = pair_margin_on_sky(p, v)
+        ax.contourf(ra, dec, margin, levels=[margin.min() - 1.0, 0.0], colors=[color],
+                    alpha=0.22)
+        cra, cdec = break_wraps(*ra_dec_deg(small_circle(p.direction_inertial,
+                                                         p.half_angle_deg)))
+        ax.plot(cra, cdec, color=color, linewidth=1.6, solid_capstyle="round",
+                solid_joinstyle="round")
+        handles.append(Patch(facecolor=color, edgecolor=color, alpha=0.5,
+                             label=_pair_label(p, ctx.n_instruments)))
+        objects.setdefault(p.direction_inertial, p.obj)
+    for direction, name in objects.items():
+        ora, odec = ra_dec_deg(np.array(direction))
+        ax.plot(ora, odec, marker="*", color="black", markersize=9, linestyle="none",
+                clip_on=False, zorder=7)
+        ax.annotate(name, (ora, odec), xytext=(5, 4), textcoords="offset points", fontsize=8,
+                    annotation_clip=False)
+    handles.append(Line2D([], [], marker="*", color="black", linestyle="none", markersize=9,
+                          label="bright object direction"))
+    return handles
+
+
+def fig_keepout_inertial(ctx: _Context):
+    fig, ax = plt.subplots(figsize=(11.0, 4.9))
+    handles = _draw_cones(ctx, ax, ctx.pairs)
+    _sky_axes(ax)
+    ax.set_title(f"{ctx.title}: keep-out cones in the inertial frame")
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+              title="keep-out cone: object" + (" / instrument" if ctx.n_instruments > 1
+                                               else f"\n({ctx.pairs[0].instrument})"))
+    return fig
+
+
+def fig_trajectory_boresight(ctx: _Context):
+    instruments = ctx.instruments()
+    n = len(instruments)
+    fig, axes = plt.subplots(n, 1, figsize=(11.0, 4.5 * n + 0.7), squeeze=False)
+    run_handles = []
+    for k, run in enumerate(ctx.runs):
+        color = ctx.run_color(k)
+        label = run.label if ctx.compare else "boresight"
+        run_handles.append(Line2D([], [], color=color, linewidth=2.0, label=label))
+    run_handles += [Line2D([], [], color="black", label="start", **START),
+                    Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL)]
+    for ax, (name, s_body, beta) in zip(axes[:, 0], instruments):
+        pairs = [p for p in ctx.pairs if (p.instrument, p.boresight_body, p.half_angle_deg)
+                 == (name, s_body, beta)]
+        cone_handles = _draw_cones(ctx, ax, pairs)
+        for k, run in enumerate(ctx.runs):
+            sc = run.scenario
+            match = [i for i, nm in enumerate(sc.instrument_names)
+                     if nm == name and np.allclose(sc.boresights_body[i], s_body)]
+            if not match:
+                continue
+            color = ctx.run_color(k)
+            b = boresight_inertial(run.run.sigma_bn, s_body)
+            ax.plot(*break_wraps(*ra_dec_deg(b)), color=color, linewidth=2.0, zorder=5)
+            b0 = ra_dec_deg(boresight_inertial(sc.initial_mrp[None], s_body)[0])
+            bd = ra_dec_deg(boresight_inertial(sc.desired_mrp[None], s_body)[0])
+            ax.plot(*b0, markeredgecolor=color, zorder=6, **START)
+            ax.plot(*bd, markerfacecolor=color, zorder=6, **GOAL)
+        _sky_axes(ax)
+        ax.set_title(f"{name}: boresight [{', '.join(f'{x:g}' for x in s_body)}] (body), "
+                     f"half-angle {beta:g} deg")
+        ax.legend(handles=cone_handles, loc="upper left", bbox_to_anchor=(1.01, 1.0),
+                  title="keep-out cone", fontsize=8, title_fontsize=9)
+    fig.suptitle(f"{ctx.title}: boresight trajectory on the sky")
+    fig.legend(handles=run_handles, loc="outside lower center", ncol=len(run_handles))
+    return fig
+
+
+# --- MRP space ----------------------------------------------------------------------
+
+
+def _mrp_axes(fig, ctx: _Context):
+    ax = fig.add_subplot(projection="3d", computed_zorder=False)
+    handles = []
+    light = LightSource(azdeg=315, altdeg=35)
+    for p, surf in ctx.surfaces():
+        color = ctx.pair_color[p]
+        handles.append(Patch(facecolor=color, alpha=0.6, label=_pair_label(p, ctx.n_instruments)
+                             + ("" if surf is not None else " (outside the unit ball)")))
+        if surf is None:
+            continue
+        ax.add_collection3d(Poly3DCollection(surf, facecolors=color, alpha=0.33,
+                                             linewidths=0.0, shade=True, lightsource=light))
+    u = np.linspace(0.0, 2.0 * np.pi, 37)
+    w = np.linspace(0.0, np.pi, 19)
+    ax.plot_wireframe(np.outer(np.cos(u), np.sin(w)), np.outer(np.sin(u), np.sin(w)),
+                      np.outer(np.ones_like(u), np.cos(w)), color="0.55", linewidth=0.35,
+                      alpha=0.45, rstride=2, cstride=2)
+    handles.append(Line2D([], [], color="0.55", linewidth=0.8, label="unit sphere |sigma| = 1"))
+    for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
+        setter(-1.08, 1.08)
+    ax.set_box_aspect((1, 1, 1))
+    ax.set_xlabel(r"$\sigma_1$")
+    ax.set_ylabel(r"$\sigma_2$")
+    ax.zaxis.set_rotate_label(False)
+    ax.set_zlabel(r"$\sigma_3$", rotation=0)
+    ticks = np.linspace(-1.0, 1.0, 5)
+    ax.set_xticks(ticks)
+    ax.set_yticks(ticks)
+    ax.set_zticks(ticks)
+    ax.view_init(elev=ctx.view[0], azim=ctx.view[1])
+    return ax, handles
+
+
+def fig_keepout_mrp(ctx: _Context):
+    fig = plt.figure(figsize=(8.0, 8.2))
+    ax, handles = _mrp_axes(fig, ctx)
+    ax.set_title(f"{ctx.title}: keep-out regions in MRP space")
+    fig.legend(handles=handles, loc="outside lower center", ncol=2,
+               title="keep-out region: object" + (" / instrument" if ctx.n_instruments > 1
+                                                  else f" ({ctx.pairs[0].instrument})"))
+    return fig
+
+
+def fig_trajectory_mrp(ctx: _Context):
+    fig = plt.figure(figsize=(8.0, 8.6))
+    ax, handles = _mrp_axes(fig, ctx)
+    traj = []
+    for k, run in enumerate(ctx.runs):
+        color = ctx.run_color(k, "black")
+        sc = run.scenario
+        tag = f"{run.label}: " if ctx.compare else ""
+        body = break_jumps(run.run.sigma_bn)
+        target = break_jumps(run.run.sigma_t)
+        ax.plot(*body.T, color=color, linewidth=2.4, zorder=10)
+        ax.plot(*target.T, color=color, linestyle=(0, (4, 3)), linewidth=1.3,
+                gapcolor="white", zorder=11)
+        s0 = to_principal(sc.initial_mrp)
+        sd = to_principal(sc.desired_mrp)
+        ax.plot(*[[x] for x in s0], markeredgecolor=color, zorder=12, **START)
+        ax.plot(*[[x] for x in sd], markerfacecolor=color, zorder=12, **GOAL)
+        traj += [Line2D([], [], color=color, linewidth=2.2, label=f"{tag}body sigma_BN"),
+                 Line2D([], [], color=color, linewidth=1.3, linestyle="--",
+                        gapcolor="white", label=f"{tag}target sigma_t")]
+    traj += [Line2D([], [], color="black", label="start", **START),
+             Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL)]
+    ax.set_title(f"{ctx.title}: MRP trajectory")
+    fig.legend(handles=traj + handles, loc="outside lower center", ncol=2)
+    return fig
+
+
+# --- time histories -------------------------------------------------------------------
+
+
+def _arrival_lines(ctx: _Context, axes) -> list:
+    handles = []
+    for k, run in enumerate(ctx.runs):
+        t_reach = run.summary.get("t_reach_s")
+        if t_reach is None:
+            continue
+        color = ctx.run_color(k, "0.3")
+        for ax in axes:
+            ax.axvline(t_reach, color=color, linestyle=":", linewidth=1.2)
+        handles.append(Line2D([], [], color=color, linestyle=":",
+                              label=f"arrival{' ' + run.label if ctx.compare else ''}"
+                                    f" ({t_reach:g} s)"))
+    return handles
+
+
+def _history(ctx: _Context, name: str, symbol: str, unit: str, get, norm_label: str,
+             norm=None, target=None, target_label: str = ""):
+    """Components (and a norm-like panel): one panel in single mode, one per component
+    when comparing runs."""
+    unit_txt = f" ({unit})" if unit else ""
+    if not ctx.compare:
+        fig, (ax, axn) = plt.subplots(2, 1, figsize=(9.0, 6.6), sharex=True,
+                                      height_ratios=(1.6, 1.0))
+        run = ctx.runs[0]
+        data = get(run)
+        handles = []
+        for i in range(3):
+            ax.plot(run.run.t, data[:, i], color=COMPONENT_COLORS[i], linewidth=1.6)
+            handles.append(Line2D([], [], color=COMPONENT_COLORS[i], linewidth=1.6,
+                                  label=f"{symbol}$_{i + 1}$"))
+            if target is not None:
+                ax.plot(run.run.t, target(run)[:, i], color=COMPONENT_COLORS[i],
+                        linestyle=(0, (4, 3)), linewidth=1.1, gapcolor="white")
+        if target is not None:
+            handles.append(Line2D([], [], color="0.3", linestyle="--", label=target_label))
+        ax.set_ylabel(f"{symbol}{unit_txt}")
+        values = norm(run) if norm is not None else np.linalg.norm(data, axis=1)
+        axn.plot(run.run.t, values, color="black", linewidth=1.5)
+        axn.set_ylabel(norm_label)
+        handles += _arrival_lines(ctx, (ax, axn))
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        axn.set_xlabel("time (s)")
+        axes = (ax, axn)
+    else:
+        fig, axes = plt.subplots(4, 1, figsize=(9.0, 9.0), sharex=True)
+        for k, run in enumerate(ctx.runs):
+            color = RUN_COLORS[k]
+            data = get(run)
+            for i in range(3):
+                axes[i].plot(run.run.t, data[:, i], color=color, linewidth=1.5)
+                if target is not None:
+                    axes[i].plot(run.run.t, target(run)[:, i], color=color,
+                                 linestyle=(0, (4, 3)), linewidth=1.0, gapcolor="white")
+            values = norm(run) if norm is not None else np.linalg.norm(data, axis=1)
+            axes[3].plot(run.run.t, values, color=color, linewidth=1.5)
+        for i in range(3):
+            axes[i].set_ylabel(f"{symbol}$_{i + 1}${unit_txt}")
+        axes[3].set_ylabel(norm_label)
+        axes[3].set_xlabel("time (s)")
+        handles = [Line2D([], [], color=RUN_COLORS[k], linewidth=1.5, label=r.label)
+                   for k, r in enumerate(ctx.runs)]
+        if target is not None:
+            handles.append(Line2D([], [], color="0.3", linestyle="--", label=target_label))
+        handles += _arrival_lines(ctx, axes)
+        fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 3))
+    fig.suptitle(f"{ctx.title}: {name}")
+    return fig
+
+
+def _attitude_error_deg(run) -> np.ndarray:
+    sc = run.scenario
+    return arrival_time(run.run.t, run.run.sigma_bn, run.run.omega_b, sc.desired_mrp,
+                        sc.arrival.attitude_tol_deg, sc.arrival.rate_tol_rad_s)[2]
+
+
+def fig_history_mrp(ctx: _Context):
+    return _history(ctx, "MRPs", r"$\sigma$", "-", lambda r: r.run.sigma_bn,
+                    "attitude error\nto goal (deg)", norm=_attitude_error_deg,
+                    target=lambda r: r.run.sigma_t, target_label="target sigma_t (dashed)")
+
+
+def fig_history_rate(ctx: _Context):
+    return _history(ctx, "angular velocity", r"$\omega$", "rad/s", lambda r: r.run.omega_b,
+                    r"$|\omega|$ (rad/s)")
+
+
+def fig_history_torque(ctx: _Context):
+    return _history(ctx, "control torque", r"$u$", "N m", lambda r: r.run.torque_b,
+                    r"$|u|$ (N m)")
+
+
+# --- margin -------------------------------------------------------------------------
+
+
+def _run_pair_margins(run, pair: Pair):
+    """Margin (deg) against time of the run's instrument/object pair equal to ``pair``."""
+    sc = run.scenario
+    for i, nm in enumerate(sc.instrument_names):
+        for j, obj in enumerate(sc.bright_object_names):
+            if (nm, obj) == (pair.instrument, pair.obj) and np.allclose(
+                    sc.directions_inertial[j], pair.direction_inertial):
+                return sc.keep_out().margins_deg(run.run.sigma_bn)[:, i, j]
+    return None
+
+
+def fig_margin(ctx: _Context):
+    if not ctx.compare:
+        run = ctx.runs[0]
+        fig, ax = plt.subplots(figsize=(9.0, 5.0))
+        ax.axhspan(-180.0, 0.0, color="tab:red", alpha=0.07, linewidth=0)
+        for p in ctx.pairs:
+            m = _run_pair_margins(run, p)
+            ax.plot(run.run.t, m, color=ctx.pair_color[p], linewidth=1.6,
+                    label=f"{p.instrument} / {p.obj}")
+        ax.axhline(0.0, color="black", linestyle="--", linewidth=1.0, label="zero margin")
+        s = run.summary
+        ax.plot([s["t_min_margin_s"]], [s["min_margin_deg"]], marker="v", color="black",
+                linestyle="none", markersize=7,
+                label=f"minimum {s['min_margin_deg']:.2f} deg at {s['t_min_margin_s']:g} s")
+        _margin_limits(ax, [_run_pair_margins(run, p) for p in ctx.pairs])
+        ax.set_xlabel("time (s)")
+        ax.set_ylabel("keep-out margin (deg)")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), title="instrument / object")
+        ax.set_title(f"{ctx.title}: keep-out margin")
+        return fig
+    # Comparison: the smallest margin over all pairs, then one panel per pair.
+    panels = [None] + list(ctx.pairs)
+    n = len(panels)
+    ncols = 2
+    nrows = -(-n // ncols)
+    fig, axes = plt.subplots(nrows, ncols, figsize=(6.0 * ncols, 3.3 * nrows + 0.8),
+                             squeeze=False, sharex=True)
+    for ax, p in zip(axes.flat, panels):
+        series = []
+        for k, run in enumerate(ctx.runs):
+            if p is None:
+                m = run.scenario.keep_out().min_margin_deg(run.run.sigma_bn)
+                s = run.summary
+                ax.plot([s["t_min_margin_s"]], [s["min_margin_deg"]], marker="v",
+                        color=RUN_COLORS[k], markeredgecolor="black", linestyle="none",
+                        markersize=7, zorder=5)
+            else:
+                m = _run_pair_margins(run, p)
+            if m is None:
+                continue
+            series.append(m)
+            ax.plot(run.run.t, m, color=RUN_COLORS[k], linewidth=1.5)
+        ax.axhspan(-180.0, 0.0, color="tab:red", alpha=0.07, linewidth=0)
+        ax.axhline(0.0, color="black", linestyle="--", linewidth=1.0)
+        _margin_limits(ax, series)
+        if p is None:
+            ax.set_title("all pairs: smallest margin")
+        else:
+            ax.set_title(f"{p.instrument} / {p.obj}", color=ctx.pair_color[p])
+        ax.set_ylabel("margin (deg)")
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    for col in range(ncols):  # the lowest visible panel of each column carries the time axis
+        visible = [axes[r, col] for r in range(nrows) if r * ncols + col < n]
+        visible[-1].xaxis.set_tick_params(labelbottom=True)
+        visible[-1].set_xlabel("time (s)")
+    handles = [Line2D([], [], color=RUN_COLORS[k], linewidth=1.5, label=r.label)
+               for k, r in enumerate(ctx.runs)]
+    handles.append(Line2D([], [], color="black", linestyle="--", label="zero margin"))
+    handles.append(Line2D([], [], marker="v", color="0.5", markeredgecolor="black",
+                          linestyle="none", label="minimum (between steps too)"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=len(handles))
+    fig.suptitle(f"{ctx.title}: keep-out margin per instrument / object")
+    return fig
+
+
+def _margin_limits(ax, series) -> None:
+    values = np.concatenate([np.asarray(s) for s in series if s is not None])
+    lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
+    pad = 0.06 * max(hi - min(lo, 0.0), 1.0)
+    ax.set_ylim(min(lo, 0.0) - pad, hi + pad)
+
+
+_BUILDERS = {
+    "keepout_inertial.png": fig_keepout_inertial,
+    "keepout_mrp.png": fig_keepout_mrp,
+    "trajectory_mrp.png": fig_trajectory_mrp,
+    "trajectory_boresight.png": fig_trajectory_boresight,
+    "history_mrp.png": fig_history_mrp,
+    "history_rate.png": fig_history_rate,
+    "history_torque.png": fig_history_torque,
+    "margin.png": fig_margin,
+}
+
+
+def render_figures(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> list[str]:
+    """Write every figure of ``FIGURES`` for the runs into ``out_dir``; their file names."""
+    ctx = _Context(runs, mrp_grid)
+    written = []
+    with matplotlib.rc_context(STYLE):
+        for name in FIGURES:
+            fig = _BUILDERS[name](ctx)
+            try:
+                fig.savefig(os.path.join(out_dir, name), dpi=dpi, bbox_inches="tight",
+                            pad_inches=0.12)
+            finally:
+                plt.close(fig)
+            written.append(name)
+    return written

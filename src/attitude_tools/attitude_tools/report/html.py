@@ -1,0 +1,182 @@
+"""``report.html``: one self-contained page (inline CSS, figures as base64 data URIs, no
+external links) with the runs' scenarios, the summary table (one column per run) and
+the figures. ``ROWS`` is the table; every cell shows ``format_value`` of one
+summary number and carries its exact JSON value in ``data-value``.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import os
+
+import numpy as np
+
+from .data import PAIR_KEY, SUMMARY_KEYS
+
+__all__ = ["ROWS", "format_value", "table_rows", "render_html"]
+
+# (summary key, row label, unit); the per-pair minima go where PAIR_KEY stands.
+ROWS = (
+    ("scenario", "scenario", ""),
+    ("planner_variant", "planner variant", ""),
+    ("time_mode", "time mode", ""),
+    ("reached", "reached the goal (arrival tolerances)", ""),
+    ("t_reach_s", "arrival time", "s"),
+    ("t_plan_arrival_s", "planner arrival time", "s"),
+    ("planner_stuck", "planner stuck", ""),
+    ("min_margin_deg", "minimum keep-out margin, all pairs (between steps too)", "deg"),
+    ("t_min_margin_s", "time of the minimum margin", "s"),
+    (PAIR_KEY, "minimum margin at the samples", "deg"),
+    ("path_length_mrp", "path length, body sigma_BN", "MRP"),
+    ("target_path_length_mrp", "path length, target sigma_t", "MRP"),
+    ("peak_torque_nm", "peak torque |u|", "N m"),
+    ("peak_rate_rad_s", "peak rate |omega|", "rad/s"),
+    ("final_rate_rad_s", "final rate |omega|", "rad/s"),
+    ("final_attitude_error_deg", "final attitude error", "deg"),
+    ("planner_step_us_median", "planner step time, median (/diagnostics)", "us"),
+    ("planner_step_us_p99", "planner step time, p99 (/diagnostics)", "us"),
+    ("steps_recorded", "steps recorded", ""),
+    ("steps_per_s", "steps recorded per wall-clock second", "1/s"),
+    ("sim_time_s", "scenario time limit", "s"),
+    ("dt_s", "time step", "s"),
+)
+assert {k for k, _, _ in ROWS} == set(SUMMARY_KEYS)
+
+CSS = """
+body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 0 auto;
+       max-width: 1180px; padding: 1.2em 1.6em 3em; color: #1d2125; line-height: 1.4; }
+h1 { font-size: 1.5em; margin-bottom: 0.2em; }
+h2 { font-size: 1.2em; margin-top: 1.8em; border-bottom: 1px solid #d0d4d9; padding-bottom: 0.2em; }
+h3 { font-size: 1.05em; margin: 1.4em 0 0.3em; }
+p.note { color: #555e68; font-size: 0.92em; margin-top: 0; }
+table { border-collapse: collapse; margin: 0.6em 0 1em; font-size: 0.93em; }
+th, td { border: 1px solid #d0d4d9; padding: 0.3em 0.7em; text-align: left; vertical-align: top; }
+thead th { background: #eef1f4; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
+td.unit { color: #555e68; white-space: nowrap; }
+td.bad { background: #fde8e8; color: #9b1c1c; font-weight: 600; }
+td.good { color: #1e6b34; }
+tr.pair th { font-weight: normal; padding-left: 1.6em; }
+figure { margin: 0.4em 0 1.6em; }
+figure img { max-width: 100%; height: auto; border: 1px solid #e3e6ea; }
+figcaption { color: #555e68; font-size: 0.9em; margin-top: 0.3em; }
+code { font-size: 0.92em; }
+"""
+
+
+def format_value(value) -> str:
+    """How a summary number is shown: 4 significant digits, yes/no, n/a for missing."""
+    if value is None:
+        return "n/a"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return format(value, ".4g")
+    return str(value)
+
+
+def table_rows(summaries: list[dict]) -> list[tuple[str, str, str, list]]:
+    """(key path, label, unit, values per run) of the summary table, pairs expanded."""
+    rows = []
+    for key, label, unit in ROWS:
+        if key != PAIR_KEY:
+            rows.append((key, label, unit, [s.get(key) for s in summaries]))
+            continue
+        pairs: list[str] = []
+        for s in summaries:
+            pairs += [p for p in s.get(PAIR_KEY, {}) if p not in pairs]
+        for p in pairs:
+            rows.append((f"{PAIR_KEY}/{p}", f"{label}, {p}", unit,
+                         [s.get(PAIR_KEY, {}).get(p) for s in summaries]))
+    return rows
+
+
+def _cell(key: str, value) -> str:
+    classes = ["num"] if isinstance(value, (int, float)) and not isinstance(value, bool) else []
+    if key.startswith("min_margin_deg") and isinstance(value, float):
+        classes.append("bad" if value <= 0.0 else "good")
+    if key == "reached" and value is not None:
+        classes.append("good" if value else "bad")
+    if key == "planner_stuck" and value:
+        classes.append("bad")
+    attr = f' class="{" ".join(classes)}"' if classes else ""
+    exact = html.escape(json.dumps(value), quote=True)
+    return (f'<td{attr} data-key="{html.escape(key, quote=True)}" data-value="{exact}" '
+            f'title="{exact}">{html.escape(format_value(value))}</td>')
+
+
+def _vec(v) -> str:
+    return "[" + ", ".join(f"{x:.4g}" for x in np.asarray(v, dtype=float)) + "]"
+
+
+def _scenario_table(runs) -> str:
+    e = html.escape
+    head = "".join(f"<th>{e(r.label)}</th>" for r in runs)
+    rows = [
+        ("run directory", [f"<code>{e(r.run_dir)}</code>" for r in runs]),
+        ("bag (the only input)", [f"<code>{e(r.bag_dir)}</code>" for r in runs]),
+        ("instruments: boresight (body), half-angle",
+         ["<br>".join(f"{e(n)}: {_vec(s)}, {b:g} deg" for n, s, b in zip(
+             r.scenario.instrument_names, r.scenario.boresights_body,
+             r.scenario.half_angles_deg)) for r in runs]),
+        ("bright objects: direction (inertial)",
+         ["<br>".join(f"{e(n)}: {_vec(c)}" for n, c in zip(
+             r.scenario.bright_object_names, r.scenario.directions_inertial)) for r in runs]),
+        ("initial / desired MRP",
+         [f"{_vec(r.scenario.initial_mrp)} / {_vec(r.scenario.desired_mrp)}" for r in runs]),
+        ("arrival tolerances",
+         [f"{r.scenario.arrival.attitude_tol_deg:g} deg, "
+          f"{r.scenario.arrival.rate_tol_rad_s:g} rad/s" for r in runs]),
+    ]
+    body = "".join(f"<tr><th>{e(name)}</th>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
+                   for name, cells in rows)
+    return f"<table><thead><tr><th></th>{head}</tr></thead><tbody>{body}</tbody></table>"
+
+
+def _summary_table(runs) -> str:
+    e = html.escape
+    head = "".join(f"<th>{e(r.label)}</th>" for r in runs)
+    body = []
+    for key, label, unit, values in table_rows([r.summary for r in runs]):
+        cls = ' class="pair"' if key.startswith(PAIR_KEY + "/") else ""
+        body.append(f"<tr{cls}><th>{e(label)}</th><td class=\"unit\">{e(unit)}</td>"
+                    + "".join(_cell(key, v) for v in values) + "</tr>")
+    return (f'<table id="summary"><thead><tr><th>quantity</th><th>unit</th>{head}</tr></thead>'
+            f"<tbody>{''.join(body)}</tbody></table>")
+
+
+def render_html(runs, figure_dir: str, figures: dict) -> str:
+    """The page for ``runs`` with the PNGs of ``figures`` (file -> (title, caption))
+    read from ``figure_dir`` and embedded."""
+    e = html.escape
+    if len(runs) == 1:
+        title = f"Attitude run report: {runs[0].label}"
+    else:
+        title = "Attitude run comparison: " + " vs ".join(r.label for r in runs)
+    parts = [
+        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+        '<meta name="viewport" content="width=device-width, initial-scale=1">',
+        f"<title>{e(title)}</title><style>{CSS}</style></head><body>",
+        f"<h1>{e(title)}</h1>",
+        '<p class="note">Every number and figure is computed from the recorded bag alone '
+        "(the run rebuilt from its messages and the scenario attached to the bag), with the "
+        "same <code>summarize</code> as <code>attitude-run</code>'s summary.json.</p>",
+        "<h2>Scenario</h2>", _scenario_table(runs),
+        "<h2>Summary</h2>", _summary_table(runs),
+        '<p class="note">Margins are the angle between boresight and object minus the '
+        "cone half-angle (positive is safe). Arrival time: first time after which the body "
+        "stays within the arrival tolerances.</p>",
+        "<h2>Figures</h2>",
+    ]
+    for name, (fig_title, caption) in figures.items():
+        with open(os.path.join(figure_dir, name), "rb") as f:
+            data = base64.b64encode(f.read()).decode("ascii")
+        parts.append(f'<figure id="{e(name, quote=True)}"><h3>{e(fig_title)}</h3>'
+                     f'<img alt="{e(fig_title, quote=True)}" src="data:image/png;base64,{data}">'
+                     f"<figcaption>{e(caption)} (<code>{e(name)}</code>)</figcaption></figure>")
+    parts.append("</body></html>")
+    return "\n".join(parts) + "\n"
