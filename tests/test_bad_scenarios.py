@@ -13,8 +13,6 @@ exit with 2, print the key and the reason on stderr and write nothing (``attitud
 validates before it starts any process). A few representative files are also given to
 the planner node through the real ``ros2 run``. ``accepted_shadow_set.yaml`` is not a
 bad file: ``|sigma_0| > 1`` is accepted through the shadow set (documented decision).
-``known_gaps/`` holds files the loader accepts today although they fail later (strict
-xfail: when the loader learns to refuse one, move it up into the bad set).
 The table of what happens with each file is in ``docs/robustness.md``.
 """
 
@@ -40,7 +38,6 @@ ROOT = Path(__file__).resolve().parents[1]
 BAD_DIR = ROOT / "tests" / "bad_scenarios"
 ACCEPTED = BAD_DIR / "accepted_shadow_set.yaml"
 BAD_FILES = sorted(p for p in BAD_DIR.glob("*.yaml") if p != ACCEPTED)
-GAP_FILES = sorted((BAD_DIR / "known_gaps").glob("*.yaml"))
 CASE1 = ROOT / "scenarios" / "case1.yaml"
 WORKSPACE_SETUP = ROOT / "ros2_ws" / "install" / "setup.bash"
 
@@ -136,14 +133,15 @@ def test_attitude_run_exits_2_before_starting_anything(path, tmp_path, capsys, m
 
 # --- (d) the planner node, started as a user does: ros2 run ... --params-file FILE --------
 
-# file -> (expected exit code, None: any non-zero; fragments the output must contain).
+# file -> (expected exit code; fragments the output must contain).
 # rcl parses the parameters file before our code: a file it cannot parse (YAML syntax
-# error, wrong top level, a null value, nested lists) ends in rclpy.init with rcl's own
-# message and exit code 1 (see docs/robustness.md); the others reach our parameter
+# error, wrong top level, a null value, nested lists) is refused in rclpy.init with
+# rcl's own message naming the file and line (exit 2); the others reach our parameter
 # check, which exits with 2 naming the key.
 NODE_CASES = {
-    "yaml_syntax_error": (None, ["Couldn't parse params file", "yaml_syntax_error.yaml",
-                                 "line 13"]),                                 # file level, rcl
+    "yaml_syntax_error": (2, ["Couldn't parse params file", "yaml_syntax_error.yaml",
+                              "line 13"]),                                    # file level, rcl
+    "duplicate_instrument_names": (2, ["instruments.names: duplicate names"]),  # list
     "empty_file": (2, ["instruments.names: missing required key"]),          # file level, ours
     "int_in_float_field": (2, ["dt_s: InvalidParameterTypeException",       # type
                                "of type 'INTEGER', expecting type 'DOUBLE'"]),
@@ -174,13 +172,10 @@ def test_planner_node_refuses_the_file(name, tmp_path):
     except subprocess.TimeoutExpired as exc:
         pytest.fail(f"the planner node accepted {path.name} and kept running: {exc.stderr}")
     output = proc.stdout + proc.stderr
-    if code is None:
-        assert proc.returncode != 0, output
-    else:
-        assert proc.returncode == code, output
-        assert "Traceback" not in output
-        key, _ = expectation(path)
-        assert key is None or f"{key}:" in output, output
+    assert proc.returncode == code, output
+    assert "Traceback" not in output
+    key, _ = expectation(path)
+    assert key is None or f"{key}:" in output, output
     for fragment in fragments:
         assert fragment in output, output
 
@@ -198,18 +193,3 @@ def test_mrp_longer_than_one_is_accepted_as_its_shadow_set():
     case1 = load_scenario(CASE1)   # the same attitude as case1's sigma_0 = [0, 0, 0.25]
     np.testing.assert_array_equal(sc.initial_mrp, case1.initial_mrp)
     np.testing.assert_array_equal(sc.desired_mrp, case1.desired_mrp)
-
-
-# --- files the loader accepts today although they fail later ------------------------------
-
-@pytest.mark.xfail(strict=True, raises=pytest.fail.Exception,
-                   reason="known loader gap (docs/robustness.md): accepted, fails later")
-@pytest.mark.parametrize("path", GAP_FILES, ids=_ids(GAP_FILES))
-def test_known_gap_is_refused(path):
-    key, _ = expectation(path)
-    try:
-        load_scenario(path)
-    except ScenarioError as err:
-        assert err.key == key, str(err)
-    else:
-        pytest.fail(f"{path.name} accepted")

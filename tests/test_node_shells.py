@@ -569,6 +569,22 @@ def test_controller_rejects_non_finite_inputs(ros, scenario):
     assert all(np.isfinite(xyz(m.wrench.torque)).all() for m in p.torque)
 
 
+def test_controller_rejects_inputs_stamped_before_its_last_torque(ros, scenario):
+    ros.init(CASE1)
+    p = ControllerProbe(ros, scenario)
+    rng = np.random.default_rng(11)
+    inputs = random_inputs(rng)
+    for slot in range(3):
+        p.feed(slot, 5 * DT_NS, inputs[slot])
+    check_torque(p.feed_last(3, 5 * DT_NS, inputs[3]), 5 * DT_NS, p.expected(inputs))
+    old = random_inputs(rng)
+    for slot in range(4):  # a whole state from the past: every input refused
+        p.feed_rejected(slot, 4 * DT_NS, old[slot])
+    assert p.node.rejected == 4
+    ros.spin_for(QUIET_S)
+    assert stamps(p.torque) == [5 * DT_NS]
+
+
 # --- 5. simulator shell (lockstep) ----------------------------------------------------------
 
 class SimProbe:

@@ -335,7 +335,7 @@ MALFORMED = [
     ('gamma_180', _set('planner.gamma_deg', 180.0), 'planner.gamma_deg', 'must be in [0, 180)'),
     ('obstacle_samples_float', _set('planner.obstacle_samples', 180.0), 'planner.obstacle_samples',
      'expected integer, got float'),
-    ('obstacle_samples_small', _set('planner.obstacle_samples', 8), 'planner.obstacle_samples', 'must be >= 16'),
+    ('obstacle_samples_small', _set('planner.obstacle_samples', 8), 'planner.obstacle_samples', 'must be in [16, 100000]'),
     ('negative_gain', _set('controller.kd_over_j', -3.1), 'controller.kd_over_j', 'must be > 0'),
     ('fis_path_missing', _set('planner.fis_repulsive', 'data/none.yaml'), 'planner.fis_repulsive', 'does not exist'),
     ('fis_empty', _set('planner.fis_attractive', ''), 'planner.fis_attractive', 'non-empty string'),

@@ -70,6 +70,7 @@ __all__ = [
 
 _NAME_RE = re.compile(r"[A-Za-z][A-Za-z0-9_]*\Z")
 _UNIT_TOLERANCE = 0.05
+MAX_STEPS = 10_000_000  # about 1 GB of trajectory arrays
 _ROS_BUILTIN_BOOLS = ("use_sim_time", "start_type_description_service")
 
 
@@ -230,7 +231,8 @@ _FIELDS = (
     _Field("planner.terminal_time_constant_s", "float", _ge(0.0), _ByVariant(2.0, 0.0)),
     _Field("planner.goal_tolerance_mrp", "float", _gt(0.0), _ByVariant(1.0e-4, 1.0e-4)),
     _Field("planner.stuck_timeout_s", "float", _gt(0.0), _ByVariant(10.0, 10.0)),
-    _Field("planner.obstacle_samples", "int", _ge(16), _ByVariant(180, 180)),
+    _Field("planner.obstacle_samples", "int", _between(16, 100_000, False, False),
+           _ByVariant(180, 180)),
     _Field("arrival.attitude_tol_deg", "float", _gt(0.0), 0.5),
     _Field("arrival.rate_tol_rad_s", "float", _gt(0.0), 1.0e-3),
 )
@@ -282,7 +284,7 @@ _DESCRIPTIONS = {
     "planner.terminal_time_constant_s": "terminal rate time constant, s (>= 0; 0: none)",
     "planner.goal_tolerance_mrp": "goal capture distance, MRP (> 0)",
     "planner.stuck_timeout_s": "no-progress time before status stuck, s (> 0)",
-    "planner.obstacle_samples": "rim samples per keep-out cone (>= 16)",
+    "planner.obstacle_samples": "rim samples per keep-out cone ([16, 100000])",
     "arrival.attitude_tol_deg": "arrival: attitude error bound, deg (> 0)",
     "arrival.rate_tol_rad_s": "arrival: body rate bound, rad/s (> 0)",
     "boresight_body": "instrument boresight s_i, body axes, unit vector",
@@ -395,6 +397,11 @@ def _data_file(v: Any, base_dir: Path) -> str:
     if not _str(v):
         raise _Bad("must be a non-empty string")
     if "/" not in v:
+        from .fuzzy import packaged_fis_files
+        packaged = packaged_fis_files()
+        if v not in packaged:
+            raise _Bad(f"{v!r} is not a packaged FIS file {packaged}; give your own file as a "
+                       "path containing '/' (relative to the scenario)")
         return v
     path = base_dir / v
     if not path.is_file():
@@ -498,6 +505,11 @@ def parse_scenario(params: dict, source: str = "<dict>", base_dir=None) -> Scena
     if values["sim_time_s"] < values["dt_s"]:
         raise ScenarioError(source, "sim_time_s",
                             f"must be >= dt_s ({values['dt_s']!r}), got {values['sim_time_s']!r}")
+    steps = values["sim_time_s"] / values["dt_s"]
+    if steps > MAX_STEPS:
+        raise ScenarioError(source, "sim_time_s", (
+            f"too many steps: sim_time_s / dt_s = {steps:.3g}, at most {MAX_STEPS:,} "
+            "(a run keeps every step in memory)"))
 
     # 3. Per-instrument and per-object fields.
     per_name = {g: [{f.key: convert(f, f"{g}.{n}.{f.key}") for f in fields} for n in groups[g]]

@@ -85,8 +85,9 @@ def declare_scenario(node) -> Scenario:
     name_specs = [s for s in first if s.name.endswith(".names")]
     for spec in name_specs:
         declare_spec(spec)
-    instruments = tuple(flat.get("instruments.names") or ())
-    objects = tuple(flat.get("bright_objects.names") or ())
+    # Each distinct name once: a duplicate is the loader's to report, on the names list.
+    instruments = tuple(dict.fromkeys(flat.get("instruments.names") or ()))
+    objects = tuple(dict.fromkeys(flat.get("bright_objects.names") or ()))
     for spec in parameter_specs(instruments, objects):
         if spec.name not in (s.name for s in name_specs):
             declare_spec(spec)

@@ -9,11 +9,13 @@ the node is then closed (a recorder finishes its bag) and rclpy shut down in ord
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import time
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException
 from rclpy.signals import SignalHandlerOptions
 
@@ -33,8 +35,15 @@ def run(node_factory, args=None) -> int:
     stop = []
     previous = {s: signal.signal(s, lambda signum, frame: stop.append(signum))
                 for s in (signal.SIGINT, signal.SIGTERM)}
-    rclpy.init(args=sys.argv if args is None else args,
-               signal_handler_options=SignalHandlerOptions.NO)
+    try:
+        rclpy.init(args=sys.argv if args is None else args,
+                   signal_handler_options=SignalHandlerOptions.NO)
+    except RCLError as err:  # rcl refuses the command line, e.g. an unparsable params file
+        program = os.path.basename(sys.argv[0]) if sys.argv else "node"
+        print(f"[{program}] error: {err}", file=sys.stderr, flush=True)
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+        return EXIT_BAD_INPUT
     node = None
     code = EXIT_OK
     try:
