@@ -106,7 +106,7 @@ class Graph:
         assert proc.returncode == 0, self.graph.tail("recorder")
 
     def close(self) -> None:
-        self.graph.stop(list(self.graph.procs))
+        self.graph.stop(list(self.graph.procs), grace_s=5.0)
         self.executor.shutdown()
         self.probe.destroy_node()
         self.ctx.try_shutdown()

@@ -714,3 +714,18 @@ def test_simulator_lockstep_resends_the_state_while_the_torque_is_missing(ros, s
     got = stamps(s.attitude)
     assert got == sorted(got) and set(got) == {0, DT_NS}
     assert [stamp_ns(m.clock) for m in s.clock] == sorted(stamp_ns(m.clock) for m in s.clock)
+
+
+def test_simulator_realtime_refuses_torques_from_the_past_and_non_finite(ros, scenario):
+    ros.init(CASE1, time_mode="realtime", realtime__torque_stale_s=600.0, **LOCKSTEP_ARGS)
+    s = SimProbe(ros, scenario)
+    ros.spin_until(lambda: s.newest() >= 0, "the first real-time state")
+    now = s.newest()
+    u = np.array([0.01, -0.02, 0.03])
+    s.torque(now, u)
+    ros.spin_until(lambda: s.node.torque_stamp == now, "the torque to be taken")
+    np.testing.assert_array_equal(s.node.torque, u)
+    s.torque(now - DT_NS, -u)                       # stamped before the applied one
+    s.torque(now + DT_NS, (math.nan, 0.0, 0.0))     # not finite
+    ros.spin_until(lambda: s.node.rejected == 2, "two rejections")
+    np.testing.assert_array_equal(s.node.torque, u)  # still the good one

@@ -195,22 +195,25 @@ def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path):
                              "--mode", "realtime", "--quiet"], env=ros_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
-    while time.monotonic() < deadline:  # wait until steps are being recorded
-        tmp_dirs = list(tmp_path.glob(".tmp-run-*/bag/*.mcap"))
-        if tmp_dirs and tmp_dirs[0].stat().st_size > 4096:
+    while time.monotonic() < deadline:  # wait until the simulator steps
+        logs = list(tmp_path.glob(".tmp-run-*/logs/simulator.log"))
+        if logs and "graph connected" in logs[0].read_text():
             break
         time.sleep(0.1)
     else:
         proc.kill()
-        pytest.fail("no recording started")
-    t0 = time.monotonic()
+        pytest.fail("the simulator did not start")
+    time.sleep(2.0)  # some real-time steps
     proc.send_signal(signal.SIGINT)
     _, stderr = proc.communicate(timeout=30)
-    assert time.monotonic() - t0 < 10.0  # every process is asked, then forced, within 5 s
     assert proc.returncode == 1  # interrupted is not success
     import json
     summary = json.loads((out / "summary.json").read_text())
     assert summary["failure"] == "interrupted"
+    # Every node process ended within 5 s (asked with SIGINT, forced within that budget).
+    assert summary["shutdown_s"] < 5.0 and set(summary["exit_codes"]) == {
+        "simulator", "planner", "controller", "recorder"}
+    assert summary["exit_codes"]["recorder"] == 0  # the bag was finished, not killed
     run = run_from_bag(str(out / "bag")).run
     assert len(run.t) >= 2
     min_margin, _ = dense_min_margin_deg(load_scenario(scenario_path).keep_out(), run.t,

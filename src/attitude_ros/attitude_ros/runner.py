@@ -54,8 +54,8 @@ def run(node_factory, args=None) -> int:
         while not stop and rclpy.ok() and not getattr(node, "done", False):
             executor.spin_once(timeout_sec=0.1)
         drained = getattr(node, "drained", None)
-        if stop and drained is not None:  # take what is already queued, for up to 5 s
-            deadline = time.monotonic() + 5.0
+        if stop and drained is not None:  # take what is already queued, for up to 1.5 s
+            deadline = time.monotonic() + 1.5
             while rclpy.ok() and time.monotonic() < deadline and not drained():
                 executor.spin_once(timeout_sec=0.05)
         code = getattr(node, "exit_code", EXIT_OK)

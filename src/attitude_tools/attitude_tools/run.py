@@ -40,7 +40,9 @@ NODES = (  # (package, executable, log name); the recorder first, the simulator 
     ("spacecraft_sim", "rigid_body_sim", "simulator"),
 )
 STOP_STATUSES = ("arrived", "stuck", "infeasible")
-GRACE_S = 5.0
+# Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
+# queues for up to 1.5 s and finishes the bag).
+NODE_GRACE_S, RECORDER_GRACE_S = 1.5, 3.0
 
 
 class RunError(RuntimeError):
@@ -114,12 +116,12 @@ class NodeGraph:
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}
 
-    def stop(self, names) -> dict[str, int]:
-        """SIGINT to each, wait up to ``GRACE_S`` together, then SIGKILL the rest."""
+    def stop(self, names, grace_s: float) -> dict[str, int]:
+        """SIGINT to each, wait up to ``grace_s`` together, then SIGKILL the rest."""
         live = [self.procs[n] for n in names if self.procs[n].poll() is None]
         for p in live:
             p.send_signal(signal.SIGINT)
-        deadline = time.monotonic() + GRACE_S
+        deadline = time.monotonic() + grace_s
         for p in live:
             try:
                 p.wait(max(0.0, deadline - time.monotonic()))
@@ -194,8 +196,10 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
             elif time.monotonic() - wall0 > timeout_s:
                 end_reason = failure = f"timeout after {timeout_s:.0f} s"
     finally:
-        codes = graph.stop(["simulator", "planner", "controller"])
-        codes.update(graph.stop(["recorder"]))
+        stop_t0 = time.monotonic()
+        codes = graph.stop(["simulator", "planner", "controller"], NODE_GRACE_S)
+        codes.update(graph.stop(["recorder"], RECORDER_GRACE_S))
+        shutdown_s = time.monotonic() - stop_t0
         for s, h in handlers.items():
             signal.signal(s, h)
     wall_s = time.monotonic() - wall0
@@ -221,6 +225,7 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
                 "steps_recorded": steps,
                 "steps_per_s": (steps - 1) / span_s if span_s > 0 else None,
                 "exit_codes": codes,
+                "shutdown_s": round(shutdown_s, 3),
             })
             with open(tmp / "summary.json", "w") as f:
                 json.dump(summary, f, indent=2)
