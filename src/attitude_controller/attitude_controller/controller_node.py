@@ -23,7 +23,7 @@ from rclpy.node import Node
 
 from attitude_core.control import PdGains, pd_torque
 from attitude_ros import contract as c
-from attitude_ros.convert import (bad_quaternion, bad_vector, mrp_from_quaternion,
+from attitude_ros.convert import (bad_quaternion, bad_vector, mrp_from_quaternion, reject,
                                   set_vector3, stamp_ns, vector3)
 from attitude_ros.params import declare, declare_scenario
 from attitude_ros.runner import run
@@ -86,9 +86,7 @@ class PdControllerNode(Node):
             else:
                 value, reason = convert(msg)
             if reason:
-                self.rejected += 1
-                self.get_logger().warning(f"rejected {name} message ({self.rejected} so far): "
-                                          f"{reason}", throttle_duration_sec=1.0)
+                reject(self, name, reason)
                 return
             inputs = self.pending.setdefault(stamp, [None] * 4)
             inputs[slot] = value

@@ -26,7 +26,8 @@ from std_msgs.msg import Float64, String
 from attitude_core.fepf import PlannerStatus
 from attitude_core.offline import build_planner
 from attitude_ros import contract as c
-from attitude_ros.convert import bad_quaternion, mrp_from_quaternion, set_vector3, stamp_ns
+from attitude_ros.convert import (bad_quaternion, mrp_from_quaternion, reject, set_vector3,
+                                  stamp_ns)
 from attitude_ros.params import declare_scenario
 from attitude_ros.runner import run
 
@@ -63,22 +64,18 @@ class FepfPlannerNode(Node):
             f"{len(self.scenario.instrument_names)} instrument(s), "
             f"{len(self.scenario.bright_object_names)} bright object(s)")
 
-    def reject(self, reason: str) -> None:
-        self.rejected += 1
-        self.get_logger().warning(f"rejected {c.ATTITUDE} message ({self.rejected} so far): "
-                                  f"{reason}", throttle_duration_sec=1.0)
-
     def on_attitude(self, msg: QuaternionStamped) -> None:
         stamp = stamp_ns(msg.header.stamp)
         if self.last_stamp_ns is not None and stamp <= self.last_stamp_ns:
             if stamp == self.last_stamp_ns:
                 self.publish()  # lockstep re-send: same state, same answer
             else:
-                self.reject(f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns")
+                reject(self, c.ATTITUDE, f"stamp {stamp} ns is older than the last state "
+                                         f"{self.last_stamp_ns} ns")
             return
         reason = bad_quaternion(msg.quaternion)
         if reason:
-            self.reject(reason)
+            reject(self, c.ATTITUDE, reason)
             return
         sigma_bn = mrp_from_quaternion(msg.quaternion)
         if self.planner is None:

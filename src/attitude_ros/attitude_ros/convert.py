@@ -48,6 +48,13 @@ def mrp_from_quaternion(q) -> np.ndarray:
     return mrp_from_quat(quaternion_xyzw(q))
 
 
+def reject(node, topic: str, reason: str) -> None:
+    """Count (``node.rejected``) and log, throttled, a refused incoming message."""
+    node.rejected += 1
+    node.get_logger().warning(f"rejected {topic} message ({node.rejected} so far): {reason}",
+                              throttle_duration_sec=1.0)
+
+
 def bad_vector(values, name: str) -> str | None:
     """Reason a vector read from a message is unusable (non-finite), else None."""
     if not all(math.isfinite(x) for x in values):

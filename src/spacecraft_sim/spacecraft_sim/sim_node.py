@@ -46,8 +46,8 @@ from rosgraph_msgs.msg import Clock as ClockMsg
 from attitude_core.dynamics import RigidBody
 from attitude_core.scenario import ScenarioError
 from attitude_ros import contract as c
-from attitude_ros.convert import (NS_PER_S, bad_vector, set_quaternion_from_mrp, set_stamp,
-                                  set_vector3, stamp_ns, vector3)
+from attitude_ros.convert import (NS_PER_S, bad_vector, reject, set_quaternion_from_mrp,
+                                  set_stamp, set_vector3, stamp_ns, vector3)
 from attitude_ros.params import declare, declare_scenario
 from attitude_ros.runner import EXIT_FAILURE, run
 
@@ -200,22 +200,17 @@ class RigidBodySimNode(Node):
         self.k += 1
         self.publish_state()
 
-    def reject(self, reason: str) -> None:
-        self.rejected += 1
-        self.get_logger().warning(f"rejected {c.TORQUE} message ({self.rejected} so far): "
-                                  f"{reason}", throttle_duration_sec=1.0)
-
     def on_torque(self, msg: WrenchStamped) -> None:
         u = vector3(msg.wrench.torque)
         reason = bad_vector(u, "torque")
         if reason:
-            self.reject(reason)
+            reject(self, c.TORQUE, reason)
             return
         stamp = stamp_ns(msg.header.stamp)
         if self.time_mode == REALTIME:
             if stamp < self.torque_stamp:
-                self.reject(f"stamp {stamp} ns is older than the applied torque's "
-                            f"{self.torque_stamp} ns")
+                reject(self, c.TORQUE, f"stamp {stamp} ns is older than the applied "
+                                       f"torque's {self.torque_stamp} ns")
                 return
             self.torque, self.torque_stamp = u, stamp
             self.torque_received_at = time.monotonic()
