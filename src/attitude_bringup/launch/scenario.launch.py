@@ -38,7 +38,11 @@ def generate_launch_description():
     recorder = Node(
         package='attitude_bringup',
         executable='bag_recorder',
-        parameters=[scenario, {'output_dir': ParameterValue(bag_dir, value_type=str)}],
+        parameters=[scenario, {
+            'output_dir': ParameterValue(bag_dir, value_type=str),
+            # The scenario travels inside the bag, so attitude-report needs nothing else.
+            'scenario_file': ParameterValue(scenario, value_type=str),
+        }],
         output='screen',
     )
     planner = Node(
