@@ -40,7 +40,7 @@ def _stamp_ns(data: bytes) -> int:
     """Stamp of a message whose first field is a ``builtin_interfaces/Time`` (raw CDR)."""
     endian = "<" if data[1] & 1 else ">"
     sec, nanosec = struct.unpack_from(endian + "iI", data, 4)
-    return sec * 1_000_000_000 + nanosec
+    return sec * c.NS_PER_S + nanosec
 
 
 class BagRecorderNode(Node):
@@ -53,7 +53,7 @@ class BagRecorderNode(Node):
         self.stop_on = set(declare(self, "stop_on_planner_status", "string_array",
                                    "planner statuses that end the recording", [""]) or ())
         self.stop_on.discard("")
-        self.stop_delay_ns = int(1e9 * declare(
+        self.stop_delay_ns = int(c.NS_PER_S * declare(
             self, "stop_delay_s", "double",
             "after a stop status, keep recording this much more run time (stamps), s",
             1.0, value_range=(0.0, 3600.0)))

@@ -13,7 +13,6 @@ import json
 import os
 import shutil
 import sys
-import tempfile
 import time
 from dataclasses import dataclass
 
@@ -23,6 +22,7 @@ from .control import PdGains, pd_torque
 from .dynamics import RigidBody
 from .fepf import FepfPlanner, PlannerStatus
 from .metrics import arrival_time, dense_min_margin_deg, path_length_mrp
+from .rundir import check_replaceable, publish, stage
 from .scenario import Scenario, ScenarioError, load_scenario
 
 __all__ = ["RunResult", "build_planner", "run_closed_loop", "summarize", "write_run", "main"]
@@ -152,26 +152,19 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
     Files go to a temporary sibling directory that replaces ``out_dir`` only when
     complete; an existing ``out_dir`` is replaced only if it holds a previous run.
     """
-    out_dir = os.path.abspath(out_dir)
-    if os.path.exists(out_dir) and os.listdir(out_dir) and not os.path.exists(
-            os.path.join(out_dir, "summary.json")):
-        raise FileExistsError(f"--out {out_dir}: exists and is not a previous run directory")
-    parent = os.path.dirname(out_dir)
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".tmp-run-", dir=parent)
+    out = check_replaceable(out_dir, ("summary.json",), "run directory")
+    tmp = stage(out, ".tmp-run-")
     try:
         margins = run.scenario.keep_out().min_margin_deg(run.sigma_bn)
         table = np.column_stack([run.t, run.sigma_bn, run.omega_b, run.torque_b, run.sigma_t,
                                  run.omega_t, margins, run.obstacle_distance_mrp,
                                  run.planner_status])
-        np.savetxt(os.path.join(tmp, "timeseries.csv"), table, delimiter=",",
+        np.savetxt(tmp / "timeseries.csv", table, delimiter=",",
                    header=",".join(TIMESERIES_COLUMNS), comments="", fmt="%.10g")
-        with open(os.path.join(tmp, "summary.json"), "w") as f:
+        with open(tmp / "summary.json", "w") as f:
             json.dump(summary, f, indent=2)
             f.write("\n")
-        if os.path.exists(out_dir):
-            shutil.rmtree(out_dir)
-        os.replace(tmp, out_dir)
+        publish(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

@@ -44,6 +44,15 @@ TARGET_FRAME = "target"       # R: the planner's target attitude
 HISTORY_DEPTH = 200
 
 
+NS_PER_S = 1_000_000_000
+
+
+def stamp_ns(stamp) -> int:
+    """A ``builtin_interfaces/Time`` (any object with ``sec``, ``nanosec``) as integer
+    nanoseconds: stamps are compared and keyed exactly, ``k dt`` in lockstep."""
+    return stamp.sec * NS_PER_S + stamp.nanosec
+
+
 class Topic(NamedTuple):
     name: str
     type_name: str      # pkg/msg/Type

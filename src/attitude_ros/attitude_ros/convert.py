@@ -10,13 +10,7 @@ import math
 import numpy as np
 
 from attitude_core.mrp import mrp_from_quat, quat_from_mrp
-
-NS_PER_S = 1_000_000_000
-
-
-def stamp_ns(stamp) -> int:
-    """``builtin_interfaces/Time`` -> integer nanoseconds."""
-    return stamp.sec * NS_PER_S + stamp.nanosec
+from attitude_core.topics import NS_PER_S, stamp_ns  # noqa: F401 - re-exported for the nodes
 
 
 def set_stamp(stamp, ns: int) -> None:

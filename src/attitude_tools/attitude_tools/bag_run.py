@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from attitude_core.mrp import mrp_from_quat
-from attitude_core.offline import STATUS_CODES, RunResult
+from attitude_core.offline import STATUS_CODES, RunResult, summarize
 from attitude_core.scenario import Scenario, loads_scenario
 from attitude_core.topics import (ANGULAR_VELOCITY, APPLIED_TORQUE, ATTITUDE, DIAGNOSTICS,
-                                  TARGET_MRP, TARGET_RATE, TORQUE)
+                                  TARGET_MRP, TARGET_RATE, TORQUE, stamp_ns)
 
 from .bag import read_attachment, read_bag
 
@@ -33,10 +33,6 @@ class BagRun:
     stamps_ns: np.ndarray          # state stamp of each step
     receive_wall_ns: np.ndarray    # recorder receive time of each step's attitude
     incomplete_steps: int          # state stamps after the last complete step
-
-
-def _stamp(msg) -> int:
-    return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
 
 def _xyz(v) -> tuple[float, float, float]:
@@ -57,7 +53,7 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
     by_topic: dict[str, dict[int, object]] = {t: {} for t in _TOPICS}
     wall: dict[int, int] = {}
     for m in read_bag(bag_dir, list(by_topic)):
-        stamp = _stamp(m.msg)
+        stamp = stamp_ns(m.msg.header.stamp)
         by_topic[m.topic][stamp] = m.msg
         if m.topic == ATTITUDE:
             wall.setdefault(stamp, m.publish_time_ns)
@@ -106,3 +102,15 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
     )
     return BagRun(run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64),
                   len(states) - n)
+
+
+def summarize_bag(bag_run: BagRun) -> dict:
+    """``attitude_core.offline.summarize`` of the recorded run, plus the recording's own
+    figures: ``steps_recorded`` and ``steps_per_s`` (from the recorder's receive times)."""
+    summary = summarize(bag_run.run)
+    wall = bag_run.receive_wall_ns
+    span_s = (int(wall[-1]) - int(wall[0])) * 1e-9
+    steps = len(bag_run.stamps_ns)
+    summary["steps_recorded"] = steps
+    summary["steps_per_s"] = (steps - 1) / span_s if span_s > 0 else None
+    return summary

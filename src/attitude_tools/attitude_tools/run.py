@@ -24,14 +24,13 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-from attitude_core.offline import summarize
+from attitude_core.rundir import check_replaceable, publish, stage
 from attitude_core.scenario import ScenarioError, load_scenario
 
-from .bag_run import run_from_bag
+from .bag_run import run_from_bag, summarize_bag
 
 NODES = (  # (package, executable, log name); the recorder first, the simulator last
     ("attitude_bringup", "bag_recorder", "recorder"),
@@ -93,10 +92,6 @@ def ros_environment(workspace: str | None = None) -> dict[str, str]:
     return env
 
 
-def _is_previous_run(path: Path) -> bool:
-    return (path / "summary.json").exists() or (path / "bag").is_dir()
-
-
 class NodeGraph:
     """The four node processes of one run, with their logs."""
 
@@ -148,17 +143,14 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
              for _, _, name in NODES}
     wall0 = time.monotonic()
     scenario = load_scenario(scenario_path)
-    out = Path(out_dir).resolve()
-    if out.exists() and any(out.iterdir()) and not _is_previous_run(out):
-        raise FileExistsError(f"--out {out}: exists and is not a previous run directory")
+    out = check_replaceable(out_dir, ("summary.json", "bag"), "run directory")
     env = ros_environment(workspace)
     ros2 = shutil.which("ros2", path=env["PATH"])
     if ros2 is None:
         raise RunError("no `ros2` command on PATH (run `bash tools/bootstrap`)")
     if timeout_s is None:
         timeout_s = 120.0 + (1.5 * scenario.sim_time_s if time_mode == "realtime" else 0.0)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=".tmp-run-", dir=out.parent))
+    tmp = stage(out, ".tmp-run-")
     (tmp / "logs").mkdir()
     shutil.copyfile(scenario_path, tmp / "scenario.yaml")
     params = ["--params-file", str(Path(scenario_path).resolve())]
@@ -215,24 +207,18 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
         except (ValueError, OSError) as err:
             failure = failure or f"bag unusable: {err}"
         else:
-            summary = summarize(bag_run.run)
-            span_s = (bag_run.receive_wall_ns[-1] - bag_run.receive_wall_ns[0]) * 1e-9
-            steps = len(bag_run.stamps_ns)
+            summary = summarize_bag(bag_run)
             summary.update({
                 "time_mode": time_mode,
                 "end_reason": end_reason,
                 "failure": failure,
-                "steps_recorded": steps,
-                "steps_per_s": (steps - 1) / span_s if span_s > 0 else None,
                 "exit_codes": codes,
                 "shutdown_s": round(shutdown_s, 3),
             })
             with open(tmp / "summary.json", "w") as f:
                 json.dump(summary, f, indent=2)
                 f.write("\n")
-    if out.exists():
-        shutil.rmtree(out)
-    os.replace(tmp, out)
+    publish(tmp, out)  # also after a failure: what was recorded is kept
     if summary is None:
         raise RunError(f"{failure or end_reason}; no usable bag (logs in {out / 'logs'})")
     return summary, out

@@ -15,8 +15,9 @@ import json
 import os
 import shutil
 import sys
-import tempfile
 import time
+
+from attitude_core.rundir import check_replaceable, publish, stage
 
 from .data import BagError, load_run
 
@@ -33,41 +34,27 @@ def write_report(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> str:
     from .figures import FIGURES, render_figures  # matplotlib: only when writing
     from .html import render_html
 
-    out_dir = os.path.abspath(out_dir)
-    if os.path.exists(out_dir) and (not os.path.isdir(out_dir) or (
-            os.listdir(out_dir) and not os.path.exists(os.path.join(out_dir, REPORT_MARKER)))):
-        raise FileExistsError(f"--out {out_dir}: exists and is not a previous report")
-    parent = os.path.dirname(out_dir)
-    os.makedirs(parent, exist_ok=True)
-    tmp = tempfile.mkdtemp(prefix=".tmp-report-", dir=parent)
-    old = None
+    out = check_replaceable(out_dir, (REPORT_MARKER,), "report")
+    tmp = stage(out, ".tmp-report-")
     try:
-        render_figures(runs, tmp, dpi=dpi, mrp_grid=mrp_grid)
+        render_figures(runs, str(tmp), dpi=dpi, mrp_grid=mrp_grid)
         document = {
             "generated_by": "attitude-report",
             "runs": [{"label": r.label, "run_dir": r.run_dir, "bag": r.bag_dir,
                       "summary": r.summary} for r in runs],
         }
-        with open(os.path.join(tmp, "summary.json"), "w", encoding="utf-8") as f:
+        with open(tmp / "summary.json", "w", encoding="utf-8") as f:
             json.dump(document, f, indent=2)
             f.write("\n")
-        page = render_html(runs, tmp, FIGURES)
-        with open(os.path.join(tmp, REPORT_MARKER), "w", encoding="utf-8") as f:
+        page = render_html(runs, str(tmp), FIGURES)
+        with open(tmp / REPORT_MARKER, "w", encoding="utf-8") as f:
             f.write(page)
         os.chmod(tmp, 0o755)
-        if os.path.exists(out_dir):
-            old = tempfile.mkdtemp(prefix=".old-report-", dir=parent)
-            os.replace(out_dir, os.path.join(old, "report"))
-        os.replace(tmp, out_dir)
+        publish(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
-        if old is not None and not os.path.exists(out_dir):
-            os.replace(os.path.join(old, "report"), out_dir)  # put the previous report back
         raise
-    finally:
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    return out_dir
+    return str(out)
 
 
 def _labels(runs, given) -> None:

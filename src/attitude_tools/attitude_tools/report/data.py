@@ -1,9 +1,7 @@
 """A recorded run for the report: rebuilt from its bag alone, with its summary figures.
 
-The summary is ``attitude_core.offline.summarize`` of the run rebuilt by
-``attitude_tools.bag_run.run_from_bag`` (what ``attitude-run`` computes for
-``summary.json``), plus the recording's own fields that the bag determines:
-``steps_recorded``, ``steps_per_s`` (recorder receive times) and ``time_mode``
+The summary is ``attitude_tools.bag_run.summarize_bag`` of the run rebuilt from the bag
+(what ``attitude-run`` computes for ``summary.json``), plus ``time_mode``
 (``lockstep`` when every state stamp is a ``/clock`` time, ``realtime`` when the
 stamps are wall-clock times, else unknown).
 """
@@ -16,12 +14,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attitude_core.offline import RunResult, summarize
+from attitude_core.offline import RunResult
 from attitude_core.scenario import Scenario
-from attitude_core.topics import CLOCK
+from attitude_core.topics import CLOCK, stamp_ns
 
 from ..bag import read_bag
-from ..bag_run import BagRun, run_from_bag
+from ..bag_run import BagRun, run_from_bag, summarize_bag
 
 __all__ = ["ReportRun", "BagError", "load_run", "SUMMARY_KEYS", "PAIR_KEY"]
 
@@ -70,8 +68,7 @@ def _json_ready(v):
 
 
 def _time_mode(bag_dir: str, stamps_ns: np.ndarray) -> str | None:
-    clock = {m.msg.clock.sec * 1_000_000_000 + m.msg.clock.nanosec
-             for m in read_bag(bag_dir, [CLOCK])}
+    clock = {stamp_ns(m.msg.clock) for m in read_bag(bag_dir, [CLOCK])}
     if clock and set(stamps_ns.tolist()) <= clock:
         return "lockstep"
     if int(stamps_ns[0]) > 10**18:  # nanoseconds since the epoch (after 2001): wall clock
@@ -89,15 +86,8 @@ def load_run(run_dir: str, label: str | None = None) -> ReportRun:
         time_mode = _time_mode(bag_dir, bag_run.stamps_ns)
     except Exception as err:  # noqa: BLE001 - any reader failure: one clear message
         raise BagError(f"cannot read the bag at {bag_dir}: {err}") from err
-    full = summarize(bag_run.run)
-    wall = bag_run.receive_wall_ns
-    span_s = (int(wall[-1]) - int(wall[0])) * 1e-9
-    steps = len(bag_run.stamps_ns)
-    full.update({
-        "time_mode": time_mode,
-        "steps_recorded": steps,
-        "steps_per_s": (steps - 1) / span_s if span_s > 0 else None,
-    })
+    full = summarize_bag(bag_run)
+    full["time_mode"] = time_mode
     summary = _json_ready({k: full[k] for k in SUMMARY_KEYS})
     sc = bag_run.run.scenario
     if label is None:
