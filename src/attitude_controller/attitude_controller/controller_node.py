@@ -45,7 +45,8 @@ class PdControllerNode(Node):
         self.scenario = declare_scenario(self)
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
         self.pending: dict[int, list] = {}
-        self.answered: dict[int, WrenchStamped] = {}
+        self.last_stamp: int | None = None   # stamp of the last torque, and the torque
+        self.last_torque: WrenchStamped | None = None
         self.rejected = 0
         self.pub_torque = self.create_publisher(WrenchStamped, c.TORQUE,
                                                 c.qos(c.topic(c.TORQUE)))
@@ -75,14 +76,13 @@ class PdControllerNode(Node):
     def callback(self, slot: int, name: str, convert):
         def on_message(msg) -> None:
             stamp = stamp_ns(msg.header.stamp)
-            if stamp in self.answered:  # lockstep re-send: answer again, identically
+            if stamp == self.last_stamp:  # lockstep re-send: answer again, identically
                 if slot == 0:
-                    self.publish(self.answered[stamp])
+                    self.publish(self.last_torque)
                 return
-            last = next(iter(self.answered), None)
             reason = None
-            if last is not None and stamp < last:
-                reason = f"stamp {stamp} ns is older than the last torque's {last} ns"
+            if self.last_stamp is not None and stamp < self.last_stamp:
+                reason = f"stamp {stamp} ns is older than the last torque's {self.last_stamp} ns"
             else:
                 value, reason = convert(msg)
             if reason:
@@ -106,7 +106,7 @@ class PdControllerNode(Node):
         self.publish(out)
         for old in [s for s in self.pending if s <= stamp]:
             del self.pending[old]
-        self.answered = {stamp: out}
+        self.last_stamp, self.last_torque = stamp, out
 
     def publish(self, out: WrenchStamped) -> None:
         if self.drop_fraction and self.rng.random() < self.drop_fraction:
