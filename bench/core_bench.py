@@ -17,8 +17,10 @@ import time
 
 import numpy as np
 
-from attitude_core.offline import build_planner, run_closed_loop
+from attitude_core.closed_loop import run_closed_loop
+from attitude_core.fepf import FepfPlanner
 from attitude_core.scenario import load_scenario
+from attitude_core.status import PlannerStatus
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 AIM_STEP_US = 50.0
@@ -28,12 +30,12 @@ AIM_CASE1_WALL_S = 0.5
 def planner_step_times(scenario, repeats):
     samples = []
     for _ in range(repeats):
-        planner = build_planner(scenario)
+        planner = FepfPlanner.from_scenario(scenario)
         for _ in range(scenario.n_steps):
             t0 = time.perf_counter_ns()
             out = planner.step()
             samples.append(time.perf_counter_ns() - t0)
-            if out.status != "tracking":
+            if out.status != PlannerStatus.TRACKING:
                 break
     return np.array(samples) / 1e3
 
@@ -61,7 +63,7 @@ def main():
           f"sim/wall {case1.sim_time_s / wall:.0f}x  wall/aim {wall / AIM_CASE1_WALL_S:.2f}")
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "attitude_core.offline",
+        subprocess.run([sys.executable, "-m", "attitude_tools.offline",
                         f"{ROOT}/scenarios/case1.yaml", "--out", f"{tmp}/run", "--quiet"],
                        check=True)
         cold = time.perf_counter() - t0

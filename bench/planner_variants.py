@@ -11,8 +11,9 @@ import argparse
 import dataclasses
 import os
 
-from attitude_core.offline import run_closed_loop, summarize
+from attitude_core.closed_loop import run_closed_loop
 from attitude_core.scenario import load_scenario
+from attitude_core.trajectory import summarize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 

@@ -1,4 +1,4 @@
-"""Benchmark of a scenario (default Case 1) through the ROS 2 node graph, against the offline runner.
+"""Benchmark of a scenario (default Case 1) through the ROS 2 node graph, against offline.
 
 Run: .venv/bin/python bench/ros_bench.py [--repeats N] [--scenario PATH] [--mode lockstep|realtime]
 
@@ -29,7 +29,7 @@ import sys
 import tempfile
 import time
 
-from attitude_core.offline import run_closed_loop
+from attitude_core.closed_loop import run_closed_loop
 from attitude_core.scenario import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -126,7 +126,7 @@ def main():
         rate = row("steps/s", rates, "1/s", "8.1f")
         print(f"  {'':34s} vs real time 1/dt = {1 / scen.dt_s:g} /s: ratio {rate * scen.dt_s:.3f}")
     span = row("simulated time covered", spans, "s", "8.1f")
-    row("speed-up sim time / wall", [a / b for a, b in zip(spans, walls)], "x", "8.1f")
+    row("speed-up sim time / wall", [a / b for a, b in zip(spans, walls, strict=True)], "x", "8.1f")
     print(f"offline runner ({scen.n_steps} steps, {scen.sim_time_s:g} s simulated)")
     off = row("warm run_closed_loop wall", off_walls, "s", "8.3f")
     row(f"  scaled to recorded {span:g} s", [w * recorded / n_samples for w in off_walls],

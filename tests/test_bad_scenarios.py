@@ -18,7 +18,6 @@ The table of what happens with each file is in ``docs/robustness.md``.
 
 from __future__ import annotations
 
-import random
 import re
 import shutil
 import subprocess
@@ -30,9 +29,9 @@ import pytest
 import yaml
 
 import attitude_tools.run as attitude_run
-from attitude_core import offline
 from attitude_core.mrp import dcm_from_mrp, shadow
 from attitude_core.scenario import ScenarioError, load_scenario
+from attitude_tools import offline
 
 ROOT = Path(__file__).resolve().parents[1]
 BAD_DIR = ROOT / "tests" / "bad_scenarios"
@@ -151,14 +150,15 @@ NODE_CASES = {
 }
 
 
+@pytest.mark.ros
 @pytest.mark.skipif(not WORKSPACE_SETUP.exists(),
                     reason="colcon workspace not built (bash tools/bootstrap builds it)")
 @pytest.mark.parametrize("name", sorted(NODE_CASES))
-def test_planner_node_refuses_the_file(name, tmp_path):
+def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
     path = BAD_DIR / f"{name}.yaml"
     code, fragments = NODE_CASES[name]
     env = attitude_run.ros_environment()
-    env["ROS_DOMAIN_ID"] = str(random.SystemRandom().randint(101, 200))
+    env["ROS_DOMAIN_ID"] = str(ros_domain)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     shim = Path(sys.prefix) / "bin" / "ros2"
     ros2 = str(shim) if shim.exists() else shutil.which("ros2", path=env["PATH"])

@@ -14,8 +14,11 @@ import textwrap
 
 import pytest
 import yaml
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
 from mcap.reader import make_reader
 from mcap_ros2._dynamic import generate_dynamic
+from rclpy.serialization import serialize_message
 from rosbags.interfaces import (
     Qos,
     QosDurability,
@@ -27,6 +30,8 @@ from rosbags.interfaces import (
 from rosbags.rosbag2 import Reader
 from rosbags.rosbag2.metadata import parse_qos
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64, String
 
 from attitude_tools import msgdefs
 from attitude_tools.bag import (
@@ -37,12 +42,6 @@ from attitude_tools.bag import (
     read_bag,
     recover_messages,
 )
-
-from builtin_interfaces.msg import Time
-from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
-from rclpy.serialization import serialize_message
-from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Float64, String
 
 SHARE = os.path.join(sys.prefix, "share")
 SEP = "=" * 80
@@ -384,12 +383,11 @@ def test_attachment(tmp_path):
 
 def test_close_after_exception_finishes_mcap(tmp_path):
     bag_dir = str(tmp_path / "crash")
-    with pytest.raises(RuntimeError):
-        with BagWriter(bag_dir, chunk_size=256) as bag:
-            bag.add_topic("/x", "std_msgs/msg/Float64")
-            for i in range(20):
-                bag.write("/x", serialize_message(Float64(data=float(i))), T0 + i)
-            raise RuntimeError("node crashed")
+    with pytest.raises(RuntimeError), BagWriter(bag_dir, chunk_size=256) as bag:
+        bag.add_topic("/x", "std_msgs/msg/Float64")
+        for i in range(20):
+            bag.write("/x", serialize_message(Float64(data=float(i))), T0 + i)
+        raise RuntimeError("node crashed")
     assert [m.msg.data for m in read_bag(bag_dir)] == [float(i) for i in range(20)]
     with Reader(bag_dir) as reader:
         assert reader.message_count == 20 == sum(1 for _ in reader.messages())

@@ -8,7 +8,6 @@ from scipy.spatial.transform import Rotation
 
 from attitude_core.constraints import KeepOutGeometry
 from attitude_core.fepf import FepfPlanner, PlannerStatus, rotation_matrix
-from attitude_core.offline import build_planner
 from attitude_core.scenario import load_scenario
 
 
@@ -40,7 +39,7 @@ def _segment_min_margin(geometry, path, sub=10):
 @pytest.mark.parametrize("name", ["case1", "case2", "case1_paper", "case2_paper"])
 def test_paper_cases_plan_to_goal_outside_inflated_cones(name):
     sc = load_scenario(f"scenarios/{name}.yaml")
-    planner = build_planner(sc)
+    planner = FepfPlanner.from_scenario(sc)
     path, statuses = _run(planner, sc.n_steps)
     assert PlannerStatus.ARRIVED in statuses
     np.testing.assert_allclose(path[-1], sc.desired_mrp, atol=1e-12)
@@ -54,7 +53,7 @@ def test_paper_cases_plan_to_goal_outside_inflated_cones(name):
 
 def test_improved_variant_ends_with_zero_target_rate_and_bounded_acceleration():
     sc = load_scenario("scenarios/case1.yaml")
-    planner = build_planner(sc)
+    planner = FepfPlanner.from_scenario(sc)
     rates = []
     for _ in range(sc.n_steps):
         rates.append(planner.step().sigma_t_dot)
@@ -98,7 +97,7 @@ def test_goal_plane_rotation_escapes_head_on_minimum():
 
 def test_reset_resumes_from_given_attitude():
     sc = load_scenario("scenarios/case2.yaml")
-    planner = build_planner(sc)
+    planner = FepfPlanner.from_scenario(sc)
     for _ in range(50):
         planner.step()
     here = np.array([0.25, 0.1, 0.0])
@@ -110,7 +109,7 @@ def test_reset_resumes_from_given_attitude():
 
 def test_restart_inside_safety_buffer_backs_out_and_arrives():
     sc = load_scenario("scenarios/case1.yaml")
-    planner = build_planner(sc)
+    planner = FepfPlanner.from_scenario(sc)
     exact = sc.keep_out()
     # A measured attitude 1 deg outside a cone: inside the planner's 2 deg buffer.
     rng = np.random.default_rng(7)

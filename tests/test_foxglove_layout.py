@@ -18,12 +18,11 @@ from pathlib import Path
 
 import pytest
 
-from attitude_core import topics
-from attitude_core.fepf import PlannerStatus
+from attitude_core import diagnostics, topics
+from attitude_core.status import PlannerStatus
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYOUT_FILE = ROOT / "docs" / "foxglove_layout.json"
-PLANNER_NODE = ROOT / "src" / "attitude_planner" / "attitude_planner" / "planner_node.py"
 
 CONTRACT = {t.name: t for t in topics.TOPICS}
 KNOWN_PANEL_TYPES = {"Plot", "StateTransitions", "RawMessages", "DiagnosticSummary",
@@ -434,9 +433,9 @@ def test_margin_plot_has_a_zero_reference_line(layout):
 
 
 def test_diagnostics_names_match_the_planner(layout):
-    """Filters and selections on /diagnostics name what the planner node publishes."""
-    source = PLANNER_NODE.read_text(encoding="utf-8")
-    literals = set(re.findall(r'"([^"\n]*)"', source)) | set(re.findall(r"'([^'\n]*)'", source))
+    """Filters and selections on /diagnostics name what the planner node publishes: the
+    names of the diagnostics contract."""
+    literals = {diagnostics.STATUS_NAME, diagnostics.HARDWARE_ID, *diagnostics.KEYS}
     for panel_id, config in layout["configById"].items():
         for path, _ in message_paths(panel_id, config):
             topic, elements = parse_message_path(path)
@@ -455,7 +454,7 @@ def test_diagnostics_names_match_the_planner(layout):
 
 
 def test_status_states_are_the_planner_statuses(layout):
-    statuses = {v for k, v in vars(PlannerStatus).items() if k.isupper()}
+    statuses = {s.value for s in PlannerStatus}
     panels = [c for k, c in layout["configById"].items() if panel_type(k) == "StateTransitions"]
     assert panels
     for config in panels:

@@ -39,12 +39,12 @@ def _raw(name: str) -> dict:
     return yaml.safe_load(text)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _fis(name: str) -> MamdaniFis:
     return load_fis(name)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _table(name: str) -> FisTable:
     return _fis(name).table()
 
@@ -86,7 +86,7 @@ class SkfuzzyReference:
 
     def __call__(self, *values) -> float:
         mu = {}
-        for inp, v in zip(self.inputs, values):
+        for inp, v in zip(self.inputs, values, strict=True):
             lo, hi = inp["universe"]
             v = min(max(v, lo), hi)
             for t, d in inp["terms"].items():

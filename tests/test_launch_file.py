@@ -1,113 +1,121 @@
-"""Structure of attitude_bringup's scenario.launch.py (launch/launch_ros are not installed here).
+"""Behaviour of attitude_bringup's scenario.launch.py (launch/launch_ros are not on PyPI).
 
-The file is read with ``ast``: launch arguments, the nodes it starts (each one must be a
-console script of its package's setup.py, so ``ros2 launch`` can find it), the shutdown on
-the simulator's exit, and its installation by attitude_bringup's setup.py.
+The launch file is executed against recording stand-ins of the few ``launch`` and
+``launch_ros`` classes it uses (each records its arguments), so what is checked is the
+launch description it really builds: the launch arguments, the nodes of
+``attitude_core.node_graph.NODES`` with their packages, executables, names and
+parameters, the simulator's expected listeners, and the shutdown on the simulator's
+exit. Each executable must be a console script of its package's setup.py (so
+``ros2 launch`` can find it), and the file must be installed by attitude_bringup.
 """
 
 import ast
+import importlib.util
+import sys
+import types
 from glob import glob
 from pathlib import Path
 
 import pytest
 
+from attitude_core import node_graph
+from attitude_core.node_parameters import TIME_MODES
+
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / 'src'
 BRINGUP = SRC / 'attitude_bringup'
 LAUNCH = BRINGUP / 'launch' / 'scenario.launch.py'
-NODES = {
-    'bag_recorder': 'attitude_bringup',
-    'fepf_planner': 'attitude_planner',
-    'pd_controller': 'attitude_controller',
-    'rigid_body_sim': 'spacecraft_sim',
+
+
+class Recorded:
+    """Stand-in of a launch class: keeps its positional and keyword arguments."""
+
+    def __init__(self, *args, **kwargs):
+        self.args, self.kwargs = args, kwargs
+
+
+def _stand_in(name):
+    return type(name, (Recorded,), {})
+
+
+STAND_INS = {
+    'launch': ['LaunchDescription'],
+    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
+    'launch.event_handlers': ['OnProcessExit'],
+    'launch.substitutions': ['LaunchConfiguration'],
+    'launch_ros.actions': ['Node'],
+    'launch_ros.parameter_descriptions': ['ParameterValue'],
 }
 
 
-def _name(func):
-    """``Node`` for ``Node(...)`` and ``launch_ros.actions.Node(...)``."""
-    if isinstance(func, ast.Name):
-        return func.id
-    if isinstance(func, ast.Attribute):
-        return func.attr
-    return None
+@pytest.fixture(scope='module')
+def description():
+    """The LaunchDescription stand-in returned by generate_launch_description()."""
+    saved = {m: sys.modules.get(m) for m in [*STAND_INS, 'launch_ros']}
+    classes = {}
+    try:
+        for module_name, names in STAND_INS.items():
+            module = types.ModuleType(module_name)
+            for name in names:
+                classes[name] = _stand_in(name)
+                setattr(module, name, classes[name])
+            sys.modules[module_name] = module
+        sys.modules.setdefault('launch_ros', types.ModuleType('launch_ros'))
+        spec = importlib.util.spec_from_file_location('scenario_launch', LAUNCH)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        ld = module.generate_launch_description()
+    finally:
+        for name, old in saved.items():
+            if old is None:
+                sys.modules.pop(name, None)
+            else:
+                sys.modules[name] = old
+    assert type(ld).__name__ == 'LaunchDescription'
+    return ld
 
 
-def _calls(tree, name):
-    return [n for n in ast.walk(tree) if isinstance(n, ast.Call) and _name(n.func) == name]
+def _entities(ld, kind):
+    (entities,) = ld.args
+    return [e for e in entities if type(e).__name__ == kind]
 
 
-def _kwargs(call):
-    return {kw.arg: kw.value for kw in call.keywords}
-
-
-def _const(node):
-    assert isinstance(node, ast.Constant), ast.unparse(node)
-    return node.value
+def _configuration(value):
+    """The launch argument name behind LaunchConfiguration('x') or ParameterValue(it)."""
+    if type(value).__name__ == 'ParameterValue':
+        assert value.kwargs.get('value_type') is str
+        value = value.args[0]
+    assert type(value).__name__ == 'LaunchConfiguration', value
+    return value.args[0]
 
 
 @pytest.fixture(scope='module')
-def tree():
-    return ast.parse(LAUNCH.read_text(), filename=str(LAUNCH))
+def nodes(description):
+    return {n.kwargs['executable']: n for n in _entities(description, 'Node')}
 
 
-@pytest.fixture(scope='module')
-def assignments(tree):
-    """Simple ``name = <expr>`` assignments anywhere in the file."""
-    out = {}
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Assign):
-            for target in node.targets:
-                if isinstance(target, ast.Name):
-                    out[target.id] = node.value
-    return out
+def test_usage_in_docstring():
+    doc = ast.get_docstring(ast.parse(LAUNCH.read_text()))
+    assert 'ros2 launch attitude_bringup scenario.launch.py scenario:=' in doc
 
 
-@pytest.fixture(scope='module')
-def nodes(tree):
-    """executable name -> the Node(...) call."""
-    out = {}
-    for call in _calls(tree, 'Node'):
-        kwargs = _kwargs(call)
-        exe = _const(kwargs['executable'])
-        assert exe not in out, f'{exe} started twice'
-        out[exe] = call
-    return out
-
-
-def test_defines_generate_launch_description(tree):
-    funcs = [n for n in tree.body if isinstance(n, ast.FunctionDef)]
-    assert 'generate_launch_description' in [f.name for f in funcs]
-    imports = {(n.module, a.name) for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)
-               for a in n.names}
-    assert ('launch_ros.actions', 'Node') in imports
-    assert ('launch', 'LaunchDescription') in imports
-
-
-def test_usage_in_docstring(tree):
-    doc = ast.get_docstring(tree)
-    assert doc and 'ros2 launch attitude_bringup scenario.launch.py scenario:=' in doc
-
-
-def test_launch_arguments(tree):
-    declared = {}
-    for call in _calls(tree, 'DeclareLaunchArgument'):
-        declared[_const(call.args[0])] = _kwargs(call)
+def test_launch_arguments(description):
+    declared = {a.args[0]: a.kwargs for a in _entities(description, 'DeclareLaunchArgument')}
     assert set(declared) == {'scenario', 'time_mode', 'bag_dir'}
-    assert 'default_value' not in declared['scenario'], 'scenario is required'
-    assert _const(declared['time_mode']['default_value']) == 'lockstep'
-    if 'choices' in declared['time_mode']:
-        assert ast.literal_eval(declared['time_mode']['choices']) == ['lockstep', 'realtime']
-    assert _const(declared['bag_dir']['default_value']) == 'bag'
+    assert 'default_value' not in declared['scenario']   # required
+    assert declared['time_mode']['default_value'] == 'lockstep'
+    assert declared['time_mode']['choices'] == list(TIME_MODES)
+    assert declared['bag_dir']['default_value'] == 'bag'
     for kwargs in declared.values():
-        assert 'description' in kwargs
+        assert kwargs['description'].strip()
 
 
-def test_starts_the_four_nodes_on_screen(nodes):
-    assert set(nodes) == set(NODES)
-    for exe, call in nodes.items():
-        kwargs = _kwargs(call)
-        assert _const(kwargs['package']) == NODES[exe]
-        assert _const(kwargs['output']) == 'screen'
+def test_starts_the_node_graph_in_order_on_screen(description):
+    started = [(n.kwargs['package'], n.kwargs['executable'], n.kwargs['name'])
+               for n in _entities(description, 'Node')]
+    assert started == [(s.package, s.executable, s.node_name) for s in node_graph.NODES]
+    for n in _entities(description, 'Node'):
+        assert n.kwargs['output'] == 'screen'
 
 
 def _console_scripts(pkg):
@@ -119,70 +127,62 @@ def _console_scripts(pkg):
     return set()
 
 
-@pytest.mark.parametrize('exe', sorted(NODES))
-def test_node_executable_is_a_console_script(nodes, exe):
-    pkg = _const(_kwargs(nodes[exe])['package'])
-    scripts = _console_scripts(pkg)
-    assert exe in scripts, (
-        f"scenario.launch.py starts {pkg}/{exe}, but src/{pkg}/setup.py declares no console "
-        f"script '{exe}' (console_scripts: {sorted(scripts)})")
+@pytest.mark.parametrize('spec', node_graph.NODES, ids=lambda s: s.executable)
+def test_node_executable_is_a_console_script(spec):
+    scripts = _console_scripts(spec.package)
+    assert spec.executable in scripts, (
+        f"the node graph starts {spec.package}/{spec.executable}, but src/{spec.package}/"
+        f"setup.py declares no console script '{spec.executable}' (console_scripts: "
+        f"{sorted(scripts)})")
 
 
-def _launch_configuration(node, assignments):
-    """The launch argument name if ``node`` is LaunchConfiguration('x') or a name bound to it."""
-    if isinstance(node, ast.Name) and node.id in assignments:
-        node = assignments[node.id]
-    if isinstance(node, ast.Call) and _name(node.func) == 'LaunchConfiguration':
-        return _const(node.args[0])
-    return None
-
-
-def _parameters(call, assignments):
-    """(launch arguments used as parameter files, {parameter name: value node})."""
+def _parameters(node):
+    """(launch arguments used as parameter files, {parameter name: value})."""
     files, values = [], {}
-    params = _kwargs(call).get('parameters')
-    assert isinstance(params, ast.List), 'parameters must be a list'
-    for item in params.elts:
-        if isinstance(item, ast.Dict):
-            values.update({_const(k): v for k, v in zip(item.keys, item.values)})
+    for item in node.kwargs['parameters']:
+        if isinstance(item, dict):
+            values.update(item)
         else:
-            files.append(_launch_configuration(item, assignments))
+            files.append(_configuration(item))
     return files, values
 
 
-def _value_from(node, assignments):
-    """Launch argument behind a parameter value (plain or wrapped in ParameterValue)."""
-    if isinstance(node, ast.Call) and _name(node.func) == 'ParameterValue':
-        node = node.args[0]
-    return _launch_configuration(node, assignments)
+def test_nodes_that_read_the_scenario_get_the_scenario_file(nodes):
+    for spec in node_graph.NODES:
+        files, _ = _parameters(nodes[spec.executable])
+        want = ['scenario'] if spec.parameters.scenario is not None else []
+        assert files == want, f'{spec.executable}: parameter files {files}'
 
 
-def test_every_node_gets_the_scenario_file(nodes, assignments):
-    for exe, call in nodes.items():
-        files, _ = _parameters(call, assignments)
-        assert files == ['scenario'], f'{exe}: parameter files {files}'
+def test_node_parameters(nodes):
+    _, sim = _parameters(nodes[node_graph.SIMULATOR.executable])
+    assert _configuration(sim['time_mode']) == 'time_mode'
+    # planner, controller and recorder all listen to the simulator's state
+    assert sim['lockstep.expected_subscribers'] == 3 == node_graph.state_listeners()
+    _, recorder = _parameters(nodes[node_graph.RECORDER.executable])
+    assert _configuration(recorder['output_dir']) == 'bag_dir'
+    assert _configuration(recorder['scenario_file']) == 'scenario'
+    own = {spec.executable: {p.key for p in spec.parameters.own} for spec in node_graph.NODES}
+    for exe, node in nodes.items():
+        _, values = _parameters(node)
+        assert set(values) <= own[exe], exe   # only parameters the node declares
 
 
-def test_node_parameters(nodes, assignments):
-    _, sim = _parameters(nodes['rigid_body_sim'], assignments)
-    assert _value_from(sim['time_mode'], assignments) == 'time_mode'
-    assert _const(sim['lockstep.expected_subscribers']) == 3
-    _, recorder = _parameters(nodes['bag_recorder'], assignments)
-    assert _value_from(recorder['output_dir'], assignments) == 'bag_dir'
+def test_shutdown_when_the_simulator_exits(description, nodes):
+    (handler,) = _entities(description, 'RegisterEventHandler')
+    (on_exit,) = handler.args
+    assert type(on_exit).__name__ == 'OnProcessExit'
+    assert on_exit.kwargs['target_action'] is nodes[node_graph.SIMULATOR.executable]
+    assert [type(a).__name__ for a in on_exit.kwargs['on_exit']] == ['Shutdown']
 
 
-def test_shutdown_when_the_simulator_exits(tree, assignments):
-    handlers = _calls(tree, 'OnProcessExit')
-    assert len(handlers) == 1
-    kwargs = _kwargs(handlers[0])
-    target = kwargs['target_action']
-    if isinstance(target, ast.Name):
-        target = assignments[target.id]
-    assert _name(target.func) == 'Node'
-    assert _const(_kwargs(target)['executable']) == 'rigid_body_sim'
-    on_exit = ast.unparse(kwargs['on_exit'])
-    assert 'Shutdown(' in on_exit
-    assert handlers[0] in [a for c in _calls(tree, 'RegisterEventHandler') for a in c.args]
+def _name(func):
+    """``glob`` for ``glob(...)`` and ``x.glob(...)``."""
+    if isinstance(func, ast.Name):
+        return func.id
+    if isinstance(func, ast.Attribute):
+        return func.attr
+    return None
 
 
 def _eval(node, names, cwd):

@@ -1,11 +1,12 @@
 """In-process tests of the three rclpy node shells: real rclpy, real DDS, one process.
 
 Each test gets its own ROS 2 session (``ros`` fixture): the default context initialised
-with the test's ``--ros-args`` on a random DDS domain (101..200), discovery limited to
-this host, and shut down afterwards. (The node classes call ``Node.__init__`` without a
-context, so they live in the default context; a private ``rclpy.Context`` per test is
-not possible without changing them.) Everything is driven by one
-``SingleThreadedExecutor`` holding the node under test and a test-side ``probe`` node.
+with the test's ``--ros-args`` on a DDS domain reserved for the test (``ros_domain`` of
+conftest.py), discovery limited to this host, and shut down afterwards. (The node
+classes call ``Node.__init__`` without a context, so they live in the default context;
+a private ``rclpy.Context`` per test is not possible without changing them.) Everything
+is driven by one ``SingleThreadedExecutor`` holding the node under test and a test-side
+``probe`` node.
 
 Waiting is always for a condition, with a generous deadline (``WAIT_S``), never for a
 time; nothing asserts on timing. "Nothing was published" is asserted deterministically
@@ -20,37 +21,42 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
-import random
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+import rclpy
+from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+from rcl_interfaces.msg import ParameterType
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+from attitude_controller.controller_node import PdControllerNode
+from attitude_core import (
+    diagnostics,
+    node_graph,
+)
+from attitude_core.control import PdGains, pd_torque
+from attitude_core.dynamics import RigidBody
+from attitude_core.fepf import FepfPlanner
+from attitude_core.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.parameters import NodeParameterError
+from attitude_core.scenario import (
+    Scenario,
+    ScenarioError,
+    load_scenario,
+    scenario_keys,
+)
+from attitude_core.status import PlannerStatus
+from attitude_planner.planner_node import FepfPlannerNode
+from attitude_ros import contract as c
+from attitude_ros.convert import set_stamp, stamp_ns
+from spacecraft_sim.sim_node import RigidBodySimNode
 
 ROOT = Path(__file__).resolve().parents[1]
-for _pkg in ("attitude_ros", "attitude_planner", "attitude_controller", "spacecraft_sim"):
-    if str(ROOT / "src" / _pkg) not in sys.path:
-        sys.path.insert(0, str(ROOT / "src" / _pkg))
-
-import rclpy  # noqa: E402
-from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped  # noqa: E402
-from rcl_interfaces.msg import ParameterType  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.parameter import Parameter  # noqa: E402
-
-from attitude_controller.controller_node import PdControllerNode  # noqa: E402
-from attitude_core.control import PdGains, pd_torque  # noqa: E402
-from attitude_core.dynamics import RigidBody  # noqa: E402
-from attitude_core.mrp import mrp_from_quat, quat_from_mrp  # noqa: E402
-from attitude_core.offline import build_planner  # noqa: E402
-from attitude_core.scenario import (  # noqa: E402
-    Scenario, ScenarioError, load_scenario, parameter_specs)
-from attitude_planner.planner_node import FepfPlannerNode  # noqa: E402
-from attitude_ros import contract as c  # noqa: E402
-from attitude_ros.convert import set_stamp, stamp_ns  # noqa: E402
-from spacecraft_sim.sim_node import RigidBodySimNode  # noqa: E402
+pytestmark = pytest.mark.ros
 
 CASE1 = ROOT / "scenarios" / "case1.yaml"
 WAIT_S = 10.0        # deadline of every wait for a condition
@@ -58,6 +64,7 @@ QUIET_S = 0.3        # extra spinning before a (supplementary) "nothing arrived"
 TOL = 1e-12
 NODE_CLASSES = {"planner": FepfPlannerNode, "controller": PdControllerNode,
                 "simulator": RigidBodySimNode}
+GRAPH = {role: node_graph.node(role) for role in NODE_CLASSES}
 ROS_TYPES = {"double": ParameterType.PARAMETER_DOUBLE,
              "double_array": ParameterType.PARAMETER_DOUBLE_ARRAY,
              "integer": ParameterType.PARAMETER_INTEGER,
@@ -144,13 +151,13 @@ class RosSession:
 
 
 @pytest.fixture
-def ros(monkeypatch):
-    """A fresh ROS 2 session on a random domain, local discovery only; shut down after."""
+def ros(monkeypatch, ros_domain):
+    """A fresh ROS 2 session on a reserved domain, local discovery only; shut down after."""
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
     monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
     monkeypatch.delenv("ROS_DOMAIN_ID", raising=False)
-    session = RosSession(domain_id=random.SystemRandom().randint(101, 200))  # unseeded
+    session = RosSession(domain_id=ros_domain)
     yield session
     session.close()
 
@@ -216,25 +223,40 @@ def assert_close(actual, expected, tol: float = TOL) -> None:
 def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
     ros.init(CASE1)
     node = ros.add(NODE_CLASSES[which]())
+    table = GRAPH[which].parameters
 
-    specs = parameter_specs(scenario.instrument_names, scenario.bright_object_names)
-    assert len(specs) == len({s.name for s in specs}) > 20
-    for spec in specs:
-        assert node.has_parameter(spec.name), spec.name
-        d = node.describe_parameter(spec.name)
-        assert d.type == ROS_TYPES[spec.ros_type], spec.name
-        assert d.read_only, spec.name
-        assert d.description.strip(), spec.name
-        if spec.value_range is not None and spec.ros_type == "double":
-            assert len(d.floating_point_range) == 1, spec.name
+    rows = scenario_keys(scenario.instrument_names, scenario.bright_object_names)
+    assert len(rows) == len({r.key for r in rows}) > 20
+    declared = [r for r in rows if table.reads_scenario_key(r.key)]
+    assert declared and len(declared) < len(rows)   # each node declares only what it reads
+    for row in rows:
+        assert node.has_parameter(row.key) == table.reads_scenario_key(row.key), row.key
+    for row in declared + list(table.own):
+        d = node.describe_parameter(row.key)
+        assert d.type == ROS_TYPES[row.ros_type], row.key
+        assert d.read_only, row.key
+        assert d.description.strip() and (row.rule is None or row.rule in d.description)
+        closed = row.bounds.closed() if row.bounds is not None else None
+        if closed is not None and row.ros_type == "double":
+            assert len(d.floating_point_range) == 1, row.key
             r = d.floating_point_range[0]
-            assert (r.from_value, r.to_value) == spec.value_range, spec.name
+            assert (r.from_value, r.to_value) == closed, row.key
         else:
-            assert list(d.floating_point_range) == [], spec.name
+            assert list(d.floating_point_range) == [], row.key
+        if closed is not None and row.ros_type == "integer":   # e.g. planner.obstacle_samples
+            assert len(d.integer_range) == 1, row.key
+            r = d.integer_range[0]
+            assert (r.from_value, r.to_value, r.step) == (closed[0], closed[1], 1), row.key
+        else:
+            assert list(d.integer_range) == [], row.key
+    if which == "planner":
+        assert node.describe_parameter("planner.obstacle_samples").integer_range
+    else:   # the controller and the simulator do not carry the planner's keys
+        assert not node.has_parameter("planner.gamma_deg")
     # Read-only for real: a set request is refused and the value is unchanged.
-    result = node.set_parameters([Parameter("dt_s", value=0.2)])[0]
+    key, value = declared[-1].key, node.get_parameter(declared[-1].key).value
+    result = node.set_parameters([Parameter(key, value=value)])[0]
     assert not result.successful
-    assert node.get_parameter("dt_s").value == 0.1
 
     # The node's scenario is the loader's, field by field ('source' names the node).
     assert node.get_fully_qualified_name() in node.scenario.source
@@ -314,9 +336,43 @@ def test_bad_parameter_raises_scenario_error_naming_the_key(ros, tmp_path, which
 
 def test_simulator_refuses_an_unknown_time_mode(ros):
     ros.init(CASE1, time_mode="fast")
-    with pytest.raises(ScenarioError) as info:
+    with pytest.raises(NodeParameterError) as info:
         RigidBodySimNode()
     assert info.value.key == "time_mode"
+    assert "must be one of ['lockstep', 'realtime']" in str(info.value)
+
+
+@pytest.mark.parametrize("key, value, reason", [
+    ("lockstep.expected_subscribers", -5, "out of range"),        # the row's integer range
+    ("lockstep.max_held_steps", -1, "out of range"),
+    ("time_mode", 1, "InvalidParameterTypeException"),           # the row's type
+])
+def test_node_own_parameters_are_checked_by_their_rows(ros, key, value, reason):
+    """Overrides given to the constructor (``**kwargs`` reach ``Node.__init__``) are
+    checked like the command line's: a NodeParameterError naming the key."""
+    ros.init(CASE1)
+    with pytest.raises(NodeParameterError) as info:
+        RigidBodySimNode(parameter_overrides=[Parameter(key, value=value)])
+    assert info.value.key == key
+    assert reason in str(info.value)
+
+
+def test_nodes_accept_an_injected_context(ros, scenario):
+    """A node can live in a private rclpy context (``context=`` reaches ``Node.__init__``)."""
+    ros.init(CASE1)
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx, args=["--ros-args", "--params-file", str(CASE1)],
+               domain_id=ros.domain_id)
+    try:
+        for node_class in NODE_CLASSES.values():
+            node = node_class(context=ctx)
+            try:
+                assert node.context is ctx
+                assert node.scenario.name == scenario.name
+            finally:
+                node.destroy_node()
+    finally:
+        ctx.try_shutdown()
 
 
 def test_relative_fis_path_resolves_against_the_working_directory(ros, tmp_path,
@@ -386,7 +442,7 @@ class PlannerProbe:
 def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
     ros.init(CASE1)
     p = PlannerProbe(ros)
-    reference = build_planner(scenario)
+    reference = FepfPlanner.from_scenario(scenario)
     exact = scenario.keep_out()
     # Measured attitudes: the start, then along the reference's own target path (the
     # planner only uses the first one; the margin is of each measured attitude).
@@ -412,9 +468,10 @@ def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
         check_answer(i, k * DT_NS, k, measured[k])
     # The target moves (the test is not vacuous).
     assert np.linalg.norm(xyz(p.mrp[-1].vector) - scenario.initial_mrp) > 1e-3
-    assert all(o.status == "tracking" for o in expected[:n_steps])
+    assert all(o.status == PlannerStatus.TRACKING for o in expected[:n_steps])
     ros.spin_until(lambda: len(p.status) >= 1, "/planner/status")
-    assert [m.data for m in p.status] == ["tracking"]  # latched, published on change only
+    # latched, published on change only
+    assert [m.data for m in p.status] == [PlannerStatus.TRACKING]
 
     # A repeated stamp: the identical answer again, the planner does not advance.
     last = n_steps - 1
@@ -443,8 +500,8 @@ def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
     assert i == answered
     check_answer(i, next_ns, n_steps + 1, measured[n_steps + 1])
     diag_values = {kv.key: kv.value for kv in p.diag[i].status[0].values}
-    assert diag_values["rejected_messages"] == str(rejected + 5)
-    assert [m.data for m in p.status] == ["tracking"]
+    assert diag_values[diagnostics.REJECTED_MESSAGES] == str(rejected + 5)
+    assert [m.data for m in p.status] == [PlannerStatus.TRACKING]
 
 
 # --- 4. controller shell ------------------------------------------------------------------
@@ -456,7 +513,7 @@ class ControllerProbe:
         self.ros = ros
         self.node = ros.add(PdControllerNode())
         self.gains = PdGains(scenario.kp, scenario.kd)
-        self.pubs = [ros.publisher(name) for name in PdControllerNode._INPUTS]
+        self.pubs = [ros.publisher(name) for name in node_graph.CONTROLLER.subscribes]
         self.torque = ros.subscribe(c.TORQUE)
         ros.wait_connected(self.node, self.pubs)
 
@@ -590,10 +647,10 @@ def test_controller_rejects_inputs_stamped_before_its_last_torque(ros, scenario)
 class SimProbe:
     """The simulator in lockstep with the smallest graph its start-up wait accepts.
 
-    ``graph_ready`` with ``expected_subscribers = e`` asks for ``e`` attitude listeners,
-    ``e - 1`` listeners of the rate, target and torque topics (the simulator's own torque
-    subscription counts), a torque publisher and a target-MRP publisher. With ``e = 1``:
-    the probe's attitude subscription, its torque publisher and a target-MRP publisher.
+    ``node_graph.readiness(e)`` asks for ``e`` attitude listeners, ``e - 1`` listeners of
+    the rate, target and torque topics (the simulator's own torque subscription counts),
+    a torque publisher and the two target publishers. With ``e = 1``: the probe's
+    attitude subscription, its torque publisher and two target publishers.
     The probe's state subscriptions are transient-local, so they see every sample even
     if one of them matches after the simulator has started.
     """
@@ -605,9 +662,10 @@ class SimProbe:
         self.clock = ros.subscribe(c.CLOCK, history=True)
         self.pub_torque = ros.publisher(c.TORQUE)
         self.pub_target = ros.publisher(c.TARGET_MRP)
+        self.pub_target_rate = ros.publisher(c.TARGET_RATE)
         self.node = ros.add(RigidBodySimNode())
-        assert self.node.expected_subscribers == 1
-        assert self.node.torque_timeout_s == 600.0
+        assert self.node.ready == node_graph.readiness(1)
+        assert self.node.stepper.cfg.torque_timeout_s == 600.0
         self.reference = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp,
                                    scenario.initial_rate_rad_s)
         self.dt_s = scenario.dt_s
@@ -655,7 +713,7 @@ def test_simulator_lockstep_advances_only_on_the_matching_torque(ros, scenario):
     s.check_state(0)
     assert_close(xyzw(s.state(0)[0].quaternion), quat_from_mrp(scenario.initial_mrp))
     assert_close(xyz(s.state(0)[1].vector), scenario.initial_rate_rad_s)
-    assert s.node.k == 0
+    assert s.node.stepper.k == 0
 
     torques = [np.array([0.3, -0.2, 0.1]), np.array([-0.5, 0.05, 0.4]),
                np.array([0.0, 0.0, 0.0]), np.array([1.0, 2.0, -1.5])]
@@ -670,18 +728,18 @@ def test_simulator_lockstep_advances_only_on_the_matching_torque(ros, scenario):
             s.torque(ns - DT_NS, -10.0 * u + 1.0)
         s.reject_torque(ns, (math.nan, 0.0, 0.0))
         ros.spin_for(QUIET_S)
-        assert s.node.k == k and s.newest() == ns
+        assert s.node.stepper.k == k and s.newest() == ns
         # The right torque: exactly one step of the core's rigid body.
         s.torque(ns, u)
         s.wait_state(next_ns)
         s.reference.step(u, s.dt_s)
         s.check_state(next_ns)
-        assert s.node.k == k + 1
+        assert s.node.stepper.k == k + 1
     # Every state stamp in order, each once (no re-sends with a 60 s period), /clock too.
     expected = [k * DT_NS for k in range(len(torques) + 1)]
     assert stamps(s.attitude) == stamps(s.rate) == expected
     assert [stamp_ns(m.clock) for m in s.clock] == expected
-    assert s.node.timeouts == 0 and s.node.resends == 0
+    assert s.node.stepper.timeouts == 0 and s.node.stepper.resends == 0
     # Physics, not a constant: the body turned and spins.
     assert np.linalg.norm(s.reference.omega_b) > 1e-3
     assert np.linalg.norm(s.reference.sigma_bn - scenario.initial_mrp) > 1e-5
@@ -701,7 +759,7 @@ def test_simulator_lockstep_resends_the_state_while_the_torque_is_missing(ros, s
         assert all(m == same[0] for m in same)
 
     resent(0)
-    assert s.node.k == 0 and s.node.resends >= 2
+    assert s.node.stepper.k == 0 and s.node.stepper.resends >= 2
     s.check_state(0)
     u = np.array([0.2, 0.1, -0.3])
     s.torque(0, u)
@@ -709,7 +767,7 @@ def test_simulator_lockstep_resends_the_state_while_the_torque_is_missing(ros, s
     s.reference.step(u, s.dt_s)
     s.check_state(DT_NS)
     resent(DT_NS)
-    assert s.node.k == 1 and s.node.timeouts == 0
+    assert s.node.stepper.k == 1 and s.node.stepper.timeouts == 0
     # Stamps never go back: 0 (several times), then dt (several times).
     got = stamps(s.attitude)
     assert got == sorted(got) and set(got) == {0, DT_NS}
@@ -723,9 +781,9 @@ def test_simulator_realtime_refuses_torques_from_the_past_and_non_finite(ros, sc
     now = s.newest()
     u = np.array([0.01, -0.02, 0.03])
     s.torque(now, u)
-    ros.spin_until(lambda: s.node.torque_stamp == now, "the torque to be taken")
-    np.testing.assert_array_equal(s.node.torque, u)
+    ros.spin_until(lambda: s.node.stepper.torque_stamp == now, "the torque to be taken")
+    np.testing.assert_array_equal(s.node.stepper.torque, u)
     s.torque(now - DT_NS, -u)                       # stamped before the applied one
     s.torque(now + DT_NS, (math.nan, 0.0, 0.0))     # not finite
     ros.spin_until(lambda: s.node.rejected == 2, "two rejections")
-    np.testing.assert_array_equal(s.node.torque, u)  # still the good one
+    np.testing.assert_array_equal(s.node.stepper.torque, u)  # still the good one

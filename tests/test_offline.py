@@ -9,7 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from attitude_core.offline import run_closed_loop, summarize
+from attitude_core.closed_loop import run_closed_loop
+from attitude_core.trajectory import summarize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PAPER_T_REACH_S = {"case1": 129.0, "case2": 72.0}
@@ -69,7 +70,7 @@ def test_closed_loop_is_deterministic_and_physical(summaries):
 
 def test_cli_writes_summary_and_timeseries(tmp_path):
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "attitude_core.offline",
+    proc = subprocess.run([sys.executable, "-m", "attitude_tools.offline",
                            f"{ROOT}/scenarios/case2.yaml", "--out", str(out), "--quiet"],
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
@@ -87,7 +88,7 @@ def test_cli_bad_scenario_exits_nonzero_and_writes_nothing(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("/**:\n  ros__parameters:\n    scenario_name: x\n    dt_s: -0.1\n")
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "attitude_core.offline", str(bad),
+    proc = subprocess.run([sys.executable, "-m", "attitude_tools.offline", str(bad),
                            "--out", str(out)], capture_output=True, text=True, timeout=60)
     assert proc.returncode == 2
     assert "bad.yaml" in proc.stderr

@@ -1,8 +1,8 @@
 """attitude-report on real recorded bags: figures, report.html and summary.json.
 
 The module fixture records paper Case 1 twice through the ROS 2 node graph
-(``attitude-run``, improved and paper-faithful planners, each on its own random
-``ROS_DOMAIN_ID`` with localhost-only discovery, both at once), then the tests run the
+(``attitude-run``, improved and paper-faithful planners, each on its own reserved
+``ROS_DOMAIN_ID`` (conftest.py) with localhost-only discovery, both at once), then the tests run the
 ``attitude-report`` command on those run directories. The geometry helpers are tested
 without ROS.
 """
@@ -11,7 +11,6 @@ import base64
 import html
 import json
 import os
-import random
 import re
 import subprocess
 import sys
@@ -24,8 +23,14 @@ from PIL import Image
 
 from attitude_core.constraints import KeepOutGeometry
 from attitude_tools.report.figures import FIGURES
-from attitude_tools.report.geometry import (Pair, boresight_inertial, break_wraps,
-                                            mrp_surface, ra_dec_deg, small_circle)
+from attitude_tools.report.geometry import (
+    Pair,
+    boresight_inertial,
+    break_wraps,
+    mrp_surface,
+    ra_dec_deg,
+    small_circle,
+)
 from attitude_tools.report.html import format_value
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -42,24 +47,23 @@ def report(*args, timeout=120):
 
 
 @pytest.fixture(scope="module")
-def recorded(tmp_path_factory):
+def recorded(tmp_path_factory, reserve_ros_domain):
     """Run directories of case1 (improved) and case1_paper, recorded through ROS."""
     if not HAVE_WORKSPACE:
         pytest.skip("colcon workspace not built (bash tools/bootstrap builds it)")
     base = tmp_path_factory.mktemp("report_runs")
-    domains = random.SystemRandom().sample(range(1, 101), 2)
     procs = {}
-    for name, domain in zip(("case1", "case1_paper"), domains):
-        env = dict(os.environ, ROS_DOMAIN_ID=str(domain),
-                   ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
-        env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
-        procs[name] = subprocess.Popen(
-            [str(BIN / "attitude-run"), str(ROOT / "scenarios" / f"{name}.yaml"),
-             "--out", str(base / name), "--quiet"],
-            env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    for name, proc in procs.items():
-        out, _ = proc.communicate(timeout=240)
-        assert proc.returncode == 0, f"{name}: {out}"
+    with reserve_ros_domain() as d1, reserve_ros_domain() as d2:
+        for name, domain in zip(("case1", "case1_paper"), (d1, d2), strict=True):
+            env = domain.env()
+            env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
+            procs[name] = subprocess.Popen(
+                [str(BIN / "attitude-run"), str(ROOT / "scenarios" / f"{name}.yaml"),
+                 "--out", str(base / name), "--quiet"],
+                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        for name, proc in procs.items():
+            out, _ = proc.communicate(timeout=240)
+            assert proc.returncode == 0, f"{name}: {out}"
     return {name: base / name for name in procs}
 
 
@@ -114,6 +118,8 @@ def assert_self_contained(page: str, out: Path) -> None:
 # --- single run -----------------------------------------------------------------------
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_single_report_writes_every_figure_as_a_valid_png(single):
     run_dir, seconds = single
     out = run_dir / "report"
@@ -124,6 +130,8 @@ def test_single_report_writes_every_figure_as_a_valid_png(single):
     assert not list(run_dir.glob(".tmp-report-*"))
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_single_report_html_is_self_contained_and_embeds_every_figure(single):
     out = single[0] / "report"
     page = (out / "report.html").read_text(encoding="utf-8")
@@ -132,6 +140,8 @@ def test_single_report_html_is_self_contained_and_embeds_every_figure(single):
     assert "case1 (improved)" in page
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_single_report_numbers_equal_attitude_run_summary(single):
     run_dir = single[0]
     expected = json.loads((run_dir / "summary.json").read_text())
@@ -160,6 +170,8 @@ def test_single_report_numbers_equal_attitude_run_summary(single):
 # --- comparison -------------------------------------------------------------------------
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_comparison_overlays_both_runs_in_figures_and_table(recorded, comparison):
     for name in FIGURES:
         assert_valid_figure(comparison / name)
@@ -182,6 +194,8 @@ def test_comparison_overlays_both_runs_in_figures_and_table(recorded, comparison
     assert doc["runs"][1]["summary"]["peak_torque_nm"] < doc["runs"][0]["summary"]["peak_torque_nm"]
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_comparison_labels_option_and_replacing_a_previous_report(recorded, tmp_path):
     out = tmp_path / "cmp"
     out.mkdir()
@@ -212,6 +226,8 @@ def test_missing_bag_exits_2_and_writes_nothing(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["run"]
 
 
+@pytest.mark.ros
+@pytest.mark.slow
 def test_unreadable_bag_exits_2_and_writes_nothing(recorded, tmp_path):
     bag = tmp_path / "run" / "bag"
     bag.mkdir(parents=True)

@@ -81,7 +81,8 @@ def test_process_is_replaced_by_the_executable(prefix):
     """exec: the node runs with the PID of the ros2 process, no Python parent left behind."""
     env = dict(BASE_ENV, AMENT_PREFIX_PATH=str(prefix))
     proc = subprocess.Popen([PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', 'demo_pkg',
-                             'talker'], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             'talker'], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 3, err
     pid, _, _, _ = parse(out)
@@ -97,7 +98,8 @@ while :; do sleep 0.05; done
     prefix = make_prefix(tmp_path / 'install', 'demo_pkg', {'waiter': (node, 0o755)})
     env = dict(BASE_ENV, AMENT_PREFIX_PATH=str(prefix))
     proc = subprocess.Popen([PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', 'demo_pkg',
-                             'waiter'], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             'waiter'], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
     try:
         assert proc.stdout.readline() == 'ready\n'
         proc.send_signal(signal.SIGTERM)
@@ -260,7 +262,8 @@ def sourced(command):
 def test_workspace_index_resolves_packages():
     res = sourced(f'{PYTHON} -c "import os; from ament_index_python import get_package_prefix; '
                   f"print(os.environ['AMENT_PREFIX_PATH']); "
-                  f"print(get_package_prefix('attitude_planner')); print(get_package_prefix('rclpy'))\"")
+                  f"print(get_package_prefix('attitude_planner')); "
+                  f"print(get_package_prefix('rclpy'))\"")
     assert res.returncode == 0, res.stderr
     path, planner, rclpy = res.stdout.splitlines()
     assert str(WS / 'install' / 'attitude_planner') in path.split(os.pathsep)

@@ -1,9 +1,9 @@
-"""Output directories written whole (attitude_core.rundir), shared by attitude-offline,
+"""Output directories written whole (attitude_tools.rundir), shared by attitude-offline,
 attitude-run and attitude-report."""
 
 import pytest
 
-from attitude_core.rundir import check_replaceable, publish, stage
+from attitude_tools.rundir import check_replaceable, publish, stage
 
 
 def test_only_missing_empty_or_previous_output_is_replaceable(tmp_path):

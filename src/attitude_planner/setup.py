@@ -15,7 +15,8 @@ setup(
     zip_safe=True,
     maintainer='Attitude Stack Maintainers',
     maintainer_email='maintainers@attitude-stack.dev',
-    description='FEPF attitude guidance node: publishes the constraint-compliant target MRP and rate',
+    description='FEPF attitude guidance node: publishes the constraint-compliant target '
+                'MRP and rate',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

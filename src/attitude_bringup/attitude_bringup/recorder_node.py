@@ -1,4 +1,4 @@
-"""rosbag2-compatible MCAP recorder of the topic contract (``ros2 run attitude_bringup bag_recorder``).
+"""rosbag2-compatible MCAP recorder of the topic contract (``ros2 run ... bag_recorder``).
 
 Records every topic of :mod:`attitude_ros.contract` as raw CDR, exactly as received,
 into ``output_dir`` (``metadata.yaml`` + ``<name>_0.mcap``, storage ``mcap``,
@@ -12,7 +12,7 @@ so the bag's timeline is the run's timeline. The receive wall time is kept as th
 publish time. The bag is finished on every way out (end, SIGINT, SIGTERM).
 
 Parameters: ``output_dir`` (required); ``stop_on_planner_status`` (planner statuses
-that end the recording, e.g. ``[arrived, stuck, infeasible]``, read from the stamped
+that end the recording, ``PlannerStatus`` values, read from the stamped
 ``/diagnostics`` so the stop is exact in run time; empty: record until shut down);
 ``stop_delay_s`` (run time recorded after that status, 1 s by default, so the bag shows
 the settle; the recording ends when every stamped topic has passed it);
@@ -24,14 +24,18 @@ from __future__ import annotations
 
 import struct
 import time
+from typing import Any
 
+from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.node import Node
 from rclpy.serialization import deserialize_message
-from diagnostic_msgs.msg import DiagnosticArray
 
-from attitude_core.scenario import ScenarioError
+from attitude_core import node_graph
+from attitude_core.diagnostics import PlannerDiagnostics
+from attitude_core.parameters import NodeParameterError
+from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
-from attitude_ros.params import declare
+from attitude_ros.params import declare_node_parameters
 from attitude_ros.runner import run
 from attitude_tools.bag import BagWriter, qos_profile_yaml
 
@@ -44,24 +48,19 @@ def _stamp_ns(data: bytes) -> int:
 
 
 class BagRecorderNode(Node):
-    def __init__(self) -> None:
-        super().__init__("bag_recorder")
-        self.output_dir = declare(self, "output_dir", "string", "bag directory to create")
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(node_graph.RECORDER.node_name, **kwargs)
+        own, _ = declare_node_parameters(self, node_graph.RECORDER.parameters)
+        self.output_dir = own["output_dir"]
         if not self.output_dir:
-            raise ScenarioError(f"node '{self.get_name()}' parameters", "output_dir",
-                                "missing required parameter")
-        self.stop_on = set(declare(self, "stop_on_planner_status", "string_array",
-                                   "planner statuses that end the recording", [""]) or ())
-        self.stop_on.discard("")
-        self.stop_delay_ns = int(c.NS_PER_S * declare(
-            self, "stop_delay_s", "double",
-            "after a stop status, keep recording this much more run time (stamps), s",
-            1.0, value_range=(0.0, 3600.0)))
+            raise NodeParameterError(f"node '{self.get_name()}' parameters", "output_dir",
+                                     "missing required parameter")
+        self.stop_on = {PlannerStatus(s) for s in own["stop_on_planner_status"] if s}
+        self.stop_delay_ns = int(c.NS_PER_S * own["stop_delay_s"])
         self.stop_at_ns = None
         self.passed_stop: set[str] = set()
         self.stamped_topics = {t.name for t in c.TOPICS if t.stamped}
-        scenario_file = declare(self, "scenario_file", "string",
-                                "scenario file stored in the bag as an attachment", "")
+        scenario_file = own["scenario_file"]
         self.done = False
         self.exit_code = 0
         self._drain_count = -1
@@ -78,12 +77,13 @@ class BagRecorderNode(Node):
             self.create_subscription(c.message_class(topic.type_name), topic.name,
                                      self.callback(topic), c.recorder_qos(topic), raw=True)
         self.get_logger().info(f"recording {len(c.TOPICS)} topics to {self.output_dir}"
-                               + (f"; stops on status {sorted(self.stop_on)}" if self.stop_on else ""))
+                               + (f"; stops on status {sorted(s.value for s in self.stop_on)}"
+                                  if self.stop_on else ""))
 
     def callback(self, topic):
         name, stamped = topic.name, topic.stamped
         watch = name == c.DIAGNOSTICS and bool(self.stop_on)
-        markers = tuple(status.encode() for status in self.stop_on)
+        markers = tuple(status.value.encode() for status in self.stop_on)
 
         def on_message(data: bytes) -> None:
             wall = time.time_ns()
@@ -105,14 +105,20 @@ class BagRecorderNode(Node):
     def check_stop(self, data: bytes, stamp_ns: int) -> None:
         """A planner diagnostics message whose status ends the recording: stop at its
         stamp plus ``stop_delay_s``, once every stamped topic has got there."""
-        values = {kv.key: kv.value
-                  for st in deserialize_message(data, DiagnosticArray).status for kv in st.values}
-        status = values.get("status")
-        if status in self.stop_on:
-            self.stop_at_ns = stamp_ns + self.stop_delay_ns
-            self.get_logger().info(
-                f"planner status {status!r} at {stamp_ns / 1e9:.3f} s: recording until "
-                f"{self.stop_at_ns / 1e9:.3f} s")
+        for st in deserialize_message(data, DiagnosticArray).status:
+            try:
+                status = PlannerDiagnostics.from_values(
+                    {kv.key: kv.value for kv in st.values}).status
+            except ValueError:  # another node's diagnostics
+                continue
+            if status in self.stop_on:
+                break
+        else:
+            return
+        self.stop_at_ns = stamp_ns + self.stop_delay_ns
+        self.get_logger().info(
+            f"planner status {status.value!r} at {stamp_ns / 1e9:.3f} s: recording until "
+            f"{self.stop_at_ns / 1e9:.3f} s")
 
     def drained(self) -> bool:
         """True when nothing was written since the previous call (the runner drains the
@@ -127,7 +133,7 @@ class BagRecorderNode(Node):
                                f"{self.output_dir}")
 
 
-def main(args=None) -> int:
+def main(args: list[str] | None = None) -> int:
     return run(BagRecorderNode, args)
 
 

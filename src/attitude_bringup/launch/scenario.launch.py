@@ -14,10 +14,11 @@ Launch arguments:
   spacecraft_sim).
 * ``bag_dir``: output directory of the bag written by ``bag_recorder`` (default ``bag``).
 
-Starts ``bag_recorder``, ``fepf_planner``, ``pd_controller`` and ``rigid_body_sim``. In
-lockstep the simulator expects three subscribers: the planner, the controller and the
-recorder. The whole launch shuts down when the simulator exits (end of the simulated time,
-or an error).
+Starts the nodes of :data:`attitude_core.node_graph.NODES` (recorder, planner, controller,
+simulator), the same table ``attitude-run`` starts; the simulator waits for every state
+listener of that table (``node_graph.state_listeners()``: planner, controller, recorder).
+The whole launch shuts down when the simulator exits (end of the simulated time, or an
+error).
 
 Machines without ROS 2's launch (pip wheels only) run the same nodes with ``attitude-run``.
 """
@@ -29,61 +30,50 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
+from attitude_core import node_graph as graph
+from attitude_core.node_parameters import LOCKSTEP, TIME_MODES
+
 
 def generate_launch_description():
     scenario = LaunchConfiguration('scenario')
     time_mode = LaunchConfiguration('time_mode')
     bag_dir = LaunchConfiguration('bag_dir')
 
-    recorder = Node(
-        package='attitude_bringup',
-        executable='bag_recorder',
-        parameters=[scenario, {
+    own_parameters = {
+        graph.RECORDER.role: {
             'output_dir': ParameterValue(bag_dir, value_type=str),
             # The scenario travels inside the bag, so attitude-report needs nothing else.
             'scenario_file': ParameterValue(scenario, value_type=str),
-        }],
-        output='screen',
-    )
-    planner = Node(
-        package='attitude_planner',
-        executable='fepf_planner',
-        parameters=[scenario],
-        output='screen',
-    )
-    controller = Node(
-        package='attitude_controller',
-        executable='pd_controller',
-        parameters=[scenario],
-        output='screen',
-    )
-    simulator = Node(
-        package='spacecraft_sim',
-        executable='rigid_body_sim',
-        parameters=[scenario, {
+        },
+        graph.SIMULATOR.role: {
             'time_mode': ParameterValue(time_mode, value_type=str),
-            # planner, controller and bag_recorder all subscribe to the simulator's state
-            'lockstep.expected_subscribers': 3,
-        }],
-        output='screen',
-    )
+            'lockstep.expected_subscribers': graph.state_listeners(),
+        },
+    }
+    nodes = {}
+    for spec in graph.NODES:
+        files = [scenario] if spec.parameters.scenario is not None else []
+        nodes[spec.role] = Node(
+            package=spec.package,
+            executable=spec.executable,
+            name=spec.node_name,
+            parameters=files + [own_parameters.get(spec.role, {})],
+            output='screen',
+        )
 
     return LaunchDescription([
         DeclareLaunchArgument(
             'scenario',
             description='Path of the scenario parameters file (e.g. $PWD/scenarios/case1.yaml)'),
         DeclareLaunchArgument(
-            'time_mode', default_value='lockstep', choices=['lockstep', 'realtime'],
+            'time_mode', default_value=LOCKSTEP, choices=list(TIME_MODES),
             description='Pacing of the simulator: lockstep or realtime'),
         DeclareLaunchArgument(
             'bag_dir', default_value='bag',
             description='Output directory of the recorded bag'),
-        recorder,
-        planner,
-        controller,
-        simulator,
+        *nodes.values(),
         RegisterEventHandler(OnProcessExit(
-            target_action=simulator,
-            on_exit=[Shutdown(reason='rigid_body_sim exited')],
+            target_action=nodes[graph.SIMULATOR.role],
+            on_exit=[Shutdown(reason=f'{graph.SIMULATOR.executable} exited')],
         )),
     ])

@@ -17,32 +17,37 @@ lockstep run nor breaks a constraint.
 from __future__ import annotations
 
 import random
+from typing import Any
 
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
 from rclpy.node import Node
 
+from attitude_core import node_graph
 from attitude_core.control import PdGains, pd_torque
 from attitude_ros import contract as c
-from attitude_ros.convert import (bad_quaternion, bad_vector, mrp_from_quaternion, reject,
-                                  set_vector3, stamp_ns, vector3)
-from attitude_ros.params import declare, declare_scenario
+from attitude_ros.convert import (
+    bad_quaternion,
+    bad_vector,
+    mrp_from_quaternion,
+    reject,
+    set_vector3,
+    stamp_ns,
+    vector3,
+)
+from attitude_ros.params import declare_scenario_node
 from attitude_ros.runner import run
 
 _PENDING_MAX = 64  # stamps kept while waiting for their other inputs
 
 
 class PdControllerNode(Node):
-    _INPUTS = (c.ATTITUDE, c.ANGULAR_VELOCITY, c.TARGET_MRP, c.TARGET_RATE)
 
-    def __init__(self) -> None:
-        super().__init__("pd_controller")
-        self.drop_fraction = declare(
-            self, "fault.drop_torque_fraction", "double",
-            "test mode: fraction of torque messages dropped", 0.0, value_range=(0.0, 0.9))
-        self.rng = random.Random(declare(self, "fault.seed", "integer",
-                                         "test mode: seed of the drops", 0))
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(node_graph.CONTROLLER.node_name, **kwargs)
+        own, self.scenario = declare_scenario_node(self, node_graph.CONTROLLER.parameters)
+        self.drop_fraction = own["fault.drop_torque_fraction"]
+        self.rng = random.Random(own["fault.seed"])
         self.dropped = 0
-        self.scenario = declare_scenario(self)
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
         self.pending: dict[int, list] = {}
         self.last_stamp: int | None = None   # stamp of the last torque, and the torque
@@ -115,7 +120,7 @@ class PdControllerNode(Node):
         self.pub_torque.publish(out)
 
 
-def main(args=None) -> int:
+def main(args: list[str] | None = None) -> int:
     return run(PdControllerNode, args)
 
 

@@ -25,20 +25,24 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
-from .mrp import dcm_from_mrp, dcm_rows_from_mrp, quat_mul_sf
+from .mrp import Vec3, Vec3Like, dcm_from_mrp, dcm_rows_from_mrp, quat_mul_sf
 
 __all__ = ["KeepOutGeometry", "ObstacleQuery", "margins_deg_from_dcm"]
 
+_Floats = npt.NDArray[np.float64]
 
-def _unit_rows(v: np.ndarray) -> np.ndarray:
+
+def _unit_rows(v: npt.ArrayLike) -> _Floats:
     v = np.atleast_2d(np.asarray(v, dtype=float))
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
+    norms: _Floats = np.linalg.norm(v, axis=1, keepdims=True)
+    return v / norms
 
 
-def _unit_perpendicular(v: np.ndarray) -> np.ndarray:
+def _unit_perpendicular(v: _Floats) -> _Floats:
     """A unit vector normal to the unit vector ``v``."""
-    p = np.cross(v, [1.0, 0.0, 0.0])
+    p: _Floats = np.cross(v, [1.0, 0.0, 0.0])
     if np.linalg.norm(p) < 0.5:
         p = np.cross(v, [0.0, 1.0, 0.0])
     return p / np.linalg.norm(p)
@@ -55,7 +59,8 @@ def margins_deg_from_dcm(
     # Boresights in inertial axes: b_i = C_BN^T s_i  -> (..., n_i, 3)
     b_n = np.einsum("...ki,nk->...ni", c_bn, boresights_body)
     cosang = np.clip(np.einsum("...ni,mi->...nm", b_n, directions_inertial), -1.0, 1.0)
-    return np.degrees(np.arccos(cosang)) - np.asarray(half_angles_deg)[:, None]
+    margins: _Floats = np.degrees(np.arccos(cosang)) - np.asarray(half_angles_deg)[:, None]
+    return margins
 
 
 @dataclass(slots=True)
@@ -107,7 +112,7 @@ class KeepOutGeometry:
             raise ValueError("half_angles_deg must have one entry per boresight")
         self.n_instruments, self.n_objects = n_i, n_j
         self._instruments_py = list(zip(map(tuple, self.boresights_body.tolist()),
-                                        self.half_angles_deg.tolist()))
+                                        self.half_angles_deg.tolist(), strict=True))
         self._objects_py = [tuple(v) for v in self.directions_inertial.tolist()]
         self._build_rim_circles()
 
@@ -123,9 +128,10 @@ class KeepOutGeometry:
     def min_margin_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
         """Smallest exact margin over all pairs, degrees (``> 0`` means eq. 5 holds)."""
         m = self.margins_deg(sigma_bn)
-        return m.reshape(m.shape[:-2] + (-1,)).min(axis=-1)
+        smallest: _Floats = m.reshape(m.shape[:-2] + (-1,)).min(axis=-1)
+        return smallest
 
-    def min_margin_deg_single(self, sigma_bn) -> float:
+    def min_margin_deg_single(self, sigma_bn: Vec3Like) -> float:
         """Smallest exact margin for one attitude, degrees.
 
         Hot-path form of :meth:`min_margin_deg` in plain floats (no array overhead).
@@ -172,12 +178,12 @@ class KeepOutGeometry:
         self._two_radii = 2.0 * self._radii
         self._m = len(self._radii)
         self._circles_py = list(zip(self._centres.tolist(), self._normals.tolist(),
-                                    self._radii.tolist()))
+                                    self._radii.tolist(), strict=True))
 
-    def rim_distances_sq(self, sigma: np.ndarray) -> np.ndarray:
+    def rim_distances_sq(self, sigma: Vec3Like) -> _Floats:
         """Squared distance from ``sigma`` to every precomputed rim circle, ``(P*k,)``."""
         sx, sy, sz = float(sigma[0]), float(sigma[1]), float(sigma[2])
-        proj = self._stack @ np.array((sx, sy, sz))
+        proj: _Floats = self._stack @ np.array((sx, sy, sz))
         m = self._m
         dd = proj[:m]
         dd *= -2.0
@@ -194,7 +200,7 @@ class KeepOutGeometry:
         dd -= h                                          # rho^2 + h^2 - 2 r rho + r^2
         return np.maximum(dd, 0.0, out=dd)
 
-    def closest_obstacle(self, sigma: np.ndarray) -> ObstacleQuery:
+    def closest_obstacle(self, sigma: Vec3Like) -> ObstacleQuery:
         """Distance and direction from ``sigma`` to the closest (inflated) keep-out region.
 
         Accurate to second order in the rim spacing; the sign is negative when
@@ -230,7 +236,7 @@ class KeepOutGeometry:
         inst, obj = divmod(pair, self.n_objects)
         return ObstacleQuery(dist, direction, np.array([px, py, pz]), inst, obj)
 
-    def _closest_on_circle(self, idx: int, sx: float, sy: float, sz: float):
+    def _closest_on_circle(self, idx: int, sx: float, sy: float, sz: float) -> Vec3:
         """Closest point to ``(sx, sy, sz)`` on precomputed rim circle ``idx``."""
         (cx, cy, cz), (nx, ny, nz), r = self._circles_py[idx]
         dx, dy, dz = sx - cx, sy - cy, sz - cz
@@ -245,7 +251,7 @@ class KeepOutGeometry:
         f = r / rn
         return (cx + f * rx, cy + f * ry, cz + f * rz)
 
-def _fiber_circles(s_body: np.ndarray, b_inertial: np.ndarray):
+def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floats, _Floats]:
     """MRP-space circles of the attitudes with ``C_BN^T s = b`` for each row ``b``.
 
     Returns centres ``(k, 3)``, unit normals ``(k, 3)`` and radii ``(k,)``.
@@ -275,9 +281,12 @@ def _fiber_circles(s_body: np.ndarray, b_inertial: np.ndarray):
         if best_score is None:
             best_pts, best_score = pts, score
         else:
+            assert best_pts is not None  # set together with best_score
             better = score > best_score
-            best_pts = [np.where(better[:, None], p, bp) for p, bp in zip(pts, best_pts)]
+            best_pts = [np.where(better[:, None], p, bp)
+                        for p, bp in zip(pts, best_pts, strict=True)]
             best_score = np.maximum(score, best_score)
+    assert best_pts is not None  # the loop above runs
     a_pt, b_pt, c_pt = best_pts
     u = a_pt - c_pt
     v = b_pt - c_pt

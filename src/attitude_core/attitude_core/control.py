@@ -9,6 +9,7 @@ Gains default to ``Kp = 5.5 J``, ``Kd = 3.1 J`` (paper Table 1).
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .mrp import dcm_from_mrp_single, relative
 
@@ -24,12 +25,14 @@ class PdGains:
 
     @classmethod
     def from_inertia(cls, inertia_kgm2: np.ndarray, kp_over_j: float = 5.5,
-                     kd_over_j: float = 3.1) -> "PdGains":
+                     kd_over_j: float = 3.1) -> PdGains:
         j = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
         return cls(kp_over_j * j, kd_over_j * j)
 
 
-def tracking_errors(sigma_bn, omega_b, sigma_rn, omega_r):
+def tracking_errors(sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike, sigma_rn: npt.ArrayLike,
+                    omega_r: npt.ArrayLike
+                    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Attitude and rate errors ``(sigma_B/R, omega_B - C_BR omega_R)`` in body axes.
 
     ``omega_r`` is the target (reference) rate in target-frame axes, rad/s.
@@ -40,7 +43,8 @@ def tracking_errors(sigma_bn, omega_b, sigma_rn, omega_r):
     return sigma_br, omega_e
 
 
-def pd_torque(gains: PdGains, sigma_bn, omega_b, sigma_rn, omega_r) -> np.ndarray:
+def pd_torque(gains: PdGains, sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike,
+              sigma_rn: npt.ArrayLike, omega_r: npt.ArrayLike) -> npt.NDArray[np.float64]:
     """Control torque ``u`` in body axes, N m (eq. 11)."""
     sigma_e, omega_e = tracking_errors(sigma_bn, omega_b, sigma_rn, omega_r)
     return -(gains.kp @ sigma_e) - gains.kd @ omega_e

@@ -8,13 +8,17 @@ switched to its shadow when ``|sigma| > 1`` (eq. 2), so ``|sigma_bn| <= 1`` alwa
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
-from .mrp import mrp_rate, mrp_rate_single, to_principal
+from .mrp import Vec3, Vec3Like, mrp_rate, mrp_rate_single, to_principal
 
 __all__ = ["RigidBody", "state_derivative"]
 
+_Floats = npt.NDArray[np.float64]
 
-def state_derivative(inertia, inertia_inv, sigma, omega, torque):
+
+def state_derivative(inertia: _Floats, inertia_inv: _Floats, sigma: _Floats, omega: _Floats,
+                     torque: _Floats) -> tuple[_Floats, _Floats]:
     """``(sigma_dot, omega_dot)`` with ``J omega_dot = -omega x J omega + u`` (eq. 4)."""
     omega_dot = inertia_inv @ (torque - np.cross(omega, inertia @ omega))
     return mrp_rate(sigma, omega), omega_dot
@@ -23,15 +27,16 @@ def state_derivative(inertia, inertia_inv, sigma, omega, torque):
 class RigidBody:
     """Torque-driven rigid body with inertia ``J`` (kg m^2, body axes)."""
 
-    def __init__(self, inertia_kgm2, sigma_bn, omega_b) -> None:
-        self.inertia = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
+    def __init__(self, inertia_kgm2: npt.ArrayLike, sigma_bn: npt.ArrayLike,
+                 omega_b: npt.ArrayLike) -> None:
+        self.inertia: _Floats = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
         self.inertia_inv = np.linalg.inv(self.inertia)
-        self.sigma_bn = to_principal(np.asarray(sigma_bn, dtype=float))
-        self.omega_b = np.asarray(omega_b, dtype=float).copy()
+        self.sigma_bn: _Floats = to_principal(np.asarray(sigma_bn, dtype=float))
+        self.omega_b: _Floats = np.asarray(omega_b, dtype=float).copy()
         self._j_rows = tuple(map(tuple, self.inertia.tolist()))
         self._ji_rows = tuple(map(tuple, self.inertia_inv.tolist()))
 
-    def step(self, torque_b, dt: float) -> None:
+    def step(self, torque_b: Vec3Like, dt: float) -> None:
         """Advance by ``dt`` seconds with torque ``torque_b`` held constant (RK4).
 
         Written in plain floats (one body per call is the hot path of every run);
@@ -41,7 +46,7 @@ class RigidBody:
         ji = self._ji_rows
         u = (float(torque_b[0]), float(torque_b[1]), float(torque_b[2]))
 
-        def deriv(s, w):
+        def deriv(s: Vec3, w: Vec3) -> tuple[Vec3, Vec3]:
             w1, w2, w3 = w
             h1 = j[0][0] * w1 + j[0][1] * w2 + j[0][2] * w3
             h2 = j[1][0] * w1 + j[1][1] * w2 + j[1][2] * w3
@@ -54,7 +59,7 @@ class RigidBody:
                   ji[2][0] * r1 + ji[2][1] * r2 + ji[2][2] * r3)
             return mrp_rate_single(s, w), wd
 
-        def add(x, k, f):
+        def add(x: Vec3, k: Vec3, f: float) -> Vec3:
             return (x[0] + f * k[0], x[1] + f * k[1], x[2] + f * k[2])
 
         s0 = tuple(self.sigma_bn.tolist())

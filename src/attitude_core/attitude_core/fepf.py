@@ -32,23 +32,20 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .constraints import KeepOutGeometry
+from .fis_files import resolve_fis
 from .fuzzy import load_fis, lookup_table
 from .mrp import omega_from_mrp_rate_single
+from .status import PlannerStatus
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
 
 __all__ = ["PlannerStatus", "PlannerOutput", "FepfPlanner", "rotation_matrix"]
-
-
-class PlannerStatus:
-    """Planner status strings (published verbatim by the planner node)."""
-
-    TRACKING = "tracking"
-    ARRIVED = "arrived"
-    STUCK = "stuck"
-    INFEASIBLE = "infeasible"
 
 
 @dataclass(slots=True)
@@ -60,7 +57,7 @@ class PlannerOutput:
     sigma_t: np.ndarray
     sigma_t_dot: np.ndarray
     omega_t: np.ndarray
-    status: str
+    status: PlannerStatus
     m_a: float
     m_r: float
     obstacle_distance_mrp: float
@@ -123,8 +120,9 @@ class FepfPlanner:
         self.dt = float(dt_s)
         self.cfg = config
         self.goal = tuple(float(x) for x in sigma_goal)
-        self.fis_a = load_fis(_resolve(config.fis_attractive, scenario_dir))
-        self.fis_r = load_fis(_resolve(config.fis_repulsive, scenario_dir))
+        base = os.getcwd() if scenario_dir is None else scenario_dir
+        self.fis_a = load_fis(resolve_fis(config.fis_attractive, base))
+        self.fis_r = load_fis(resolve_fis(config.fis_repulsive, base))
         known = {"goal_distance", "obstacle_distance", "approach"}
         for fis in (self.fis_a, self.fis_r):
             unknown = set(fis.input_names) - known
@@ -140,6 +138,23 @@ class FepfPlanner:
         self._cos_g, self._sin_g = math.cos(self._gamma), math.sin(self._gamma)
         self._paper_axis = config.direction_axis == "paper"
         self.reset(sigma_0)
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, sigma_0=None) -> FepfPlanner:
+        """The planner of a scenario, starting at ``sigma_0`` (default: the scenario's).
+
+        The safety buffer is the configured ``planner.safety_margin_deg``, reduced to
+        half of the start or goal margin when either lies closer to a cone than that.
+        """
+        cfg = scenario.planner
+        exact = scenario.keep_out()
+        start = scenario.initial_mrp if sigma_0 is None else np.asarray(sigma_0, dtype=float)
+        end_margin = min(float(exact.min_margin_deg(start)),
+                         float(exact.min_margin_deg(scenario.desired_mrp)))
+        inflation = min(cfg.safety_margin_deg, 0.5 * max(end_margin, 0.0))
+        geometry = scenario.keep_out(inflation_deg=inflation, samples=cfg.obstacle_samples)
+        return cls(geometry, start, scenario.desired_mrp, scenario.dt_s, cfg,
+                   scenario_dir=os.path.dirname(os.path.abspath(scenario.source)))
 
     def reset(self, sigma) -> None:
         """Restart from attitude ``sigma`` (e.g. the measured attitude after a restart)."""
@@ -308,10 +323,3 @@ def _goal_occlusion(d_goal: float, d_obs: float) -> float:
     if d_obs <= 0.0:
         return 1.0
     return min(max(d_goal / d_obs - 1.0, 0.0), 1.0)
-
-
-def _resolve(name: str, scenario_dir: str | None) -> str:
-    """FIS source: a packaged file name, or a path relative to the scenario's folder."""
-    if "/" in name and scenario_dir is not None:
-        return os.path.join(scenario_dir, name)
-    return name

@@ -7,6 +7,7 @@ All functions take sampled trajectories (``t`` in s, ``sigma_bn`` (N, 3), ``omeg
 from __future__ import annotations
 
 import numpy as np
+import numpy.typing as npt
 
 from .constraints import KeepOutGeometry
 from .mrp import mrp_from_quat_sf, principal_angle, quat_sf_from_mrp, relative, shadow
@@ -27,7 +28,7 @@ def _quat_rate_sf(q: np.ndarray, omega: np.ndarray) -> np.ndarray:
 
 
 def dense_min_margin_deg(geometry: KeepOutGeometry, t: np.ndarray, sigma_bn: np.ndarray,
-                         omega_b: np.ndarray, substeps: int = 8):
+                         omega_b: np.ndarray, substeps: int = 8) -> tuple[float, float]:
     """Smallest exact keep-out margin over the whole run, between samples too.
 
     Between samples the attitude is a cubic Hermite interpolant of the quaternion and
@@ -64,7 +65,8 @@ def path_length_mrp(sigma: np.ndarray) -> float:
 
 
 def arrival_time(t: np.ndarray, sigma_bn: np.ndarray, omega_b: np.ndarray,
-                 sigma_goal: np.ndarray, attitude_tol_deg: float, rate_tol_rad_s: float):
+                 sigma_goal: np.ndarray, attitude_tol_deg: float, rate_tol_rad_s: float
+                 ) -> tuple[bool, float | None, npt.NDArray[np.float64]]:
     """First time after which the body stays within the arrival tolerances.
 
     Attitude error is the principal angle of ``sigma_B/D``. Returns

@@ -15,7 +15,10 @@ Every function accepts a single 3-vector or a stack ``(..., 3)``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 __all__ = [
     "skew",
@@ -37,10 +40,19 @@ __all__ = [
     "quat_mul_sf",
     "quat_sf_from_mrp",
     "mrp_from_quat_sf",
+    "Vec3",
+    "Vec3Like",
 ]
 
+_Floats = npt.NDArray[np.float64]
 
-def skew(v: np.ndarray) -> np.ndarray:
+Vec3 = tuple[float, float, float]
+"""A 3-vector in plain floats (the per-step hot paths)."""
+Vec3Like = Sequence[float] | npt.NDArray[np.float64]
+"""One 3-vector as plain floats or an array (what the ``*_single`` functions index)."""
+
+
+def skew(v: npt.ArrayLike) -> _Floats:
     """Skew-symmetric cross-product matrix ``[v x]`` (``skew(a) @ b == cross(a, b)``)."""
     v = np.asarray(v, dtype=float)
     z = np.zeros(v.shape[:-1])
@@ -50,19 +62,19 @@ def skew(v: np.ndarray) -> np.ndarray:
     )
 
 
-def dcm_from_mrp(sigma: np.ndarray) -> np.ndarray:
+def dcm_from_mrp(sigma: npt.ArrayLike) -> _Floats:
     """Direction cosine matrix ``C_BN(sigma_bn)``.
 
     ``C = I + (8 [s x]^2 - 4 (1 - s.s) [s x]) / (1 + s.s)^2``.
     """
     sigma = np.asarray(sigma, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
     sx = skew(sigma)
     eye = np.eye(3)
     return eye + (8.0 * sx @ sx - 4.0 * (1.0 - s2) * sx) / (1.0 + s2) ** 2
 
 
-def dcm_rows_from_mrp(sigma):
+def dcm_rows_from_mrp(sigma: Vec3Like) -> tuple[Vec3, Vec3, Vec3]:
     """Rows of ``C_BN`` for one MRP set as plain float tuples (per-step hot paths).
 
     Same formula as :func:`dcm_from_mrp`:
@@ -79,59 +91,61 @@ def dcm_rows_from_mrp(sigma):
     )
 
 
-def dcm_from_mrp_single(sigma) -> np.ndarray:
+def dcm_from_mrp_single(sigma: Vec3Like) -> _Floats:
     """``C_BN`` for one MRP set as a (3, 3) array (see :func:`dcm_rows_from_mrp`)."""
     return np.array(dcm_rows_from_mrp(sigma))
 
 
-def shadow(sigma: np.ndarray) -> np.ndarray:
+def shadow(sigma: npt.ArrayLike) -> _Floats:
     """Shadow MRP set ``sigma^S = -sigma / (sigma^T sigma)`` (eq. 2); same attitude."""
     sigma = np.asarray(sigma, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None]
     return -sigma / s2
 
 
-def to_principal(sigma: np.ndarray) -> np.ndarray:
+def to_principal(sigma: npt.ArrayLike) -> _Floats:
     """Return the MRP set with ``|sigma| <= 1`` (switch to the shadow set when longer)."""
     sigma = np.asarray(sigma, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None]
     return np.where(s2 > 1.0, -sigma / np.where(s2 > 0.0, s2, 1.0), sigma)
 
 
-def b_matrix(sigma: np.ndarray) -> np.ndarray:
+def b_matrix(sigma: npt.ArrayLike) -> _Floats:
     """Kinematic matrix ``B(sigma) = (1 - s.s) I + 2 [s x] + 2 s s^T`` (eq. 3)."""
     sigma = np.asarray(sigma, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
-    return (
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
+    b: _Floats = (
         (1.0 - s2) * np.eye(3)
         + 2.0 * skew(sigma)
         + 2.0 * sigma[..., :, None] * sigma[..., None, :]
     )
+    return b
 
 
-def mrp_rate(sigma: np.ndarray, omega: np.ndarray) -> np.ndarray:
+def mrp_rate(sigma: npt.ArrayLike, omega: npt.ArrayLike) -> _Floats:
     """MRP rate ``sigma_dot = B(sigma) omega / 4`` (eq. 3), omega in body axes, rad/s."""
     sigma = np.asarray(sigma, dtype=float)
     omega = np.asarray(omega, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
-    sw = np.einsum("...i,...i->...", sigma, omega)[..., None]
-    return 0.25 * ((1.0 - s2) * omega + 2.0 * np.cross(sigma, omega) + 2.0 * sigma * sw)
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    sw: _Floats = np.einsum("...i,...i->...", sigma, omega)[..., None]
+    rate: _Floats = 0.25 * ((1.0 - s2) * omega + 2.0 * np.cross(sigma, omega) + 2.0 * sigma * sw)
+    return rate
 
 
-def omega_from_mrp_rate(sigma: np.ndarray, sigma_dot: np.ndarray) -> np.ndarray:
+def omega_from_mrp_rate(sigma: npt.ArrayLike, sigma_dot: npt.ArrayLike) -> _Floats:
     """Body rate from the MRP rate, ``omega = 4 B^T sigma_dot / (1 + s.s)^2`` (eq. 12).
 
     Uses ``B^T B = (1 + s.s)^2 I``, so this is the exact inverse of :func:`mrp_rate`.
     """
     sigma = np.asarray(sigma, dtype=float)
     sd = np.asarray(sigma_dot, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
-    ssd = np.einsum("...i,...i->...", sigma, sd)[..., None]
-    bt_sd = (1.0 - s2) * sd - 2.0 * np.cross(sigma, sd) + 2.0 * sigma * ssd
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    ssd: _Floats = np.einsum("...i,...i->...", sigma, sd)[..., None]
+    bt_sd: _Floats = (1.0 - s2) * sd - 2.0 * np.cross(sigma, sd) + 2.0 * sigma * ssd
     return 4.0 * bt_sd / (1.0 + s2) ** 2
 
 
-def mrp_rate_single(sigma, omega):
+def mrp_rate_single(sigma: Vec3, omega: Vec3) -> Vec3:
     """Eq. 3 for one MRP set in plain floats: ``sigma_dot = B(sigma) omega / 4`` (tuple)."""
     s1, s2, s3 = sigma
     w1, w2, w3 = omega
@@ -143,7 +157,7 @@ def mrp_rate_single(sigma, omega):
             0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw))
 
 
-def omega_from_mrp_rate_single(sigma, sigma_dot) -> np.ndarray:
+def omega_from_mrp_rate_single(sigma: Vec3Like, sigma_dot: Vec3Like) -> _Floats:
     """Eq. 12 for one MRP set, in plain floats (hot path of the planner)."""
     s1, s2, s3 = float(sigma[0]), float(sigma[1]), float(sigma[2])
     d1, d2, d3 = float(sigma_dot[0]), float(sigma_dot[1]), float(sigma_dot[2])
@@ -158,7 +172,7 @@ def omega_from_mrp_rate_single(sigma, sigma_dot) -> np.ndarray:
     ])
 
 
-def compose(sigma_outer: np.ndarray, sigma_inner: np.ndarray) -> np.ndarray:
+def compose(sigma_outer: npt.ArrayLike, sigma_inner: npt.ArrayLike) -> _Floats:
     """MRP of ``C(sigma_outer) C(sigma_inner)``, e.g. ``sigma_BN = compose(sigma_BR, sigma_RN)``.
 
     Computed through quaternions so that it is defined for every pair (the closed MRP
@@ -168,7 +182,7 @@ def compose(sigma_outer: np.ndarray, sigma_inner: np.ndarray) -> np.ndarray:
     return mrp_from_quat_sf(q)
 
 
-def relative(sigma_bn: np.ndarray, sigma_rn: np.ndarray) -> np.ndarray:
+def relative(sigma_bn: npt.ArrayLike, sigma_rn: npt.ArrayLike) -> _Floats:
     """Relative MRP ``sigma_B/R`` of frame B with respect to frame R, ``|sigma| <= 1``.
 
     ``C(sigma_B/R) = C_BN C_RN^T``; this is the paper's attitude error ``sigma_e``.
@@ -179,43 +193,43 @@ def relative(sigma_bn: np.ndarray, sigma_rn: np.ndarray) -> np.ndarray:
     return mrp_from_quat_sf(q)
 
 
-def quat_from_mrp(sigma_bn: np.ndarray) -> np.ndarray:
+def quat_from_mrp(sigma_bn: npt.ArrayLike) -> _Floats:
     """Body orientation in the inertial frame as a unit quaternion ``(x, y, z, w)``, ``w >= 0``."""
     q = quat_sf_from_mrp(to_principal(sigma_bn))
     return np.concatenate([q[..., 1:], q[..., :1]], -1)
 
 
-def mrp_from_quat(quat_xyzw: np.ndarray) -> np.ndarray:
+def mrp_from_quat(quat_xyzw: npt.ArrayLike) -> _Floats:
     """MRP ``sigma_bn`` (``|sigma| <= 1``) from a quaternion ``(x, y, z, w)``; normalises it."""
     q = np.asarray(quat_xyzw, dtype=float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     return mrp_from_quat_sf(np.concatenate([q[..., 3:], q[..., :3]], -1))
 
 
-def principal_angle(sigma: np.ndarray) -> np.ndarray:
+def principal_angle(sigma: npt.ArrayLike) -> _Floats:
     """Principal rotation angle in radians, in ``[0, pi]`` (short way)."""
-    s = np.linalg.norm(to_principal(sigma), axis=-1)
+    s: _Floats = np.linalg.norm(to_principal(sigma), axis=-1)
     return 4.0 * np.arctan(s)
 
 
 # --- scalar-first quaternion helpers (q = [q0, q1, q2, q3]) ---------------------------
 
 
-def quat_sf_from_mrp(sigma: np.ndarray) -> np.ndarray:
+def quat_sf_from_mrp(sigma: npt.ArrayLike) -> _Floats:
     """Scalar-first Euler parameters ``[q0, q1, q2, q3]`` of ``C(sigma)`` (sign not normalised)."""
     sigma = np.asarray(sigma, dtype=float)
-    s2 = np.einsum("...i,...i->...", sigma, sigma)[..., None]
+    s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None]
     return np.concatenate([(1.0 - s2), 2.0 * sigma], -1) / (1.0 + s2)
 
 
-def mrp_from_quat_sf(q: np.ndarray) -> np.ndarray:
+def mrp_from_quat_sf(q: _Floats) -> _Floats:
     """MRP with ``|sigma| <= 1`` from scalar-first Euler parameters."""
     # Choose the sign with q0 >= 0 so that |sigma| <= 1.
     q = np.where(q[..., :1] < 0.0, -q, q)
     return q[..., 1:] / (1.0 + q[..., :1])
 
 
-def quat_mul_sf(p: np.ndarray, q: np.ndarray) -> np.ndarray:
+def quat_mul_sf(p: _Floats, q: _Floats) -> _Floats:
     """Scalar-first quaternion product for DCM composition: ``C(p (x) q) = C(p) C(q)``.
 
     With ``C`` the passive DCM of a scalar-first quaternion this is the Schaub & Junkins

@@ -23,7 +23,7 @@ Every stamped message of one step carries the stamp of the state it answers.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import NamedTuple, Protocol
 
 CLOCK = "/clock"
 ATTITUDE = "/spacecraft/attitude"
@@ -47,7 +47,14 @@ HISTORY_DEPTH = 200
 NS_PER_S = 1_000_000_000
 
 
-def stamp_ns(stamp) -> int:
+class Stamp(Protocol):
+    """A ``builtin_interfaces/Time`` as the stamp helpers use it."""
+
+    sec: int
+    nanosec: int
+
+
+def stamp_ns(stamp: Stamp) -> int:
     """A ``builtin_interfaces/Time`` (any object with ``sec``, ``nanosec``) as integer
     nanoseconds: stamps are compared and keyed exactly, ``k dt`` in lockstep."""
     return stamp.sec * NS_PER_S + stamp.nanosec

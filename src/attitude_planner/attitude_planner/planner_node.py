@@ -5,7 +5,7 @@ Subscribes ``/spacecraft/attitude``; for each new state stamp it takes one FEPF 
 ``/planner/target_mrp`` (``sigma_t`` = sigma_RN), ``/planner/target_rate`` (``omega_t``,
 target-frame axes, rad/s), ``/planner/keep_out_margin_deg`` (the smallest keep-out
 margin of the measured attitude, eq. 5) and ``/diagnostics``; ``/planner/status``
-(tracking, arrived, stuck, infeasible) is latched and published on change.
+(a ``PlannerStatus`` value) is latched and published on change.
 
 It only reacts to messages, so lockstep simulation, real time and a hardware bridge
 look the same to it. The planner starts from the first measured attitude (equal to the
@@ -17,32 +17,28 @@ an older stamp or an unusable quaternion is rejected, logged and counted.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rclpy.node import Node
 from std_msgs.msg import Float64, String
 
-from attitude_core.fepf import PlannerStatus
-from attitude_core.offline import build_planner
+from attitude_core import diagnostics, node_graph
+from attitude_core.fepf import FepfPlanner, PlannerOutput
 from attitude_ros import contract as c
-from attitude_ros.convert import (bad_quaternion, mrp_from_quaternion, reject, set_vector3,
-                                  stamp_ns)
-from attitude_ros.params import declare_scenario
+from attitude_ros.convert import bad_quaternion, mrp_from_quaternion, reject, set_vector3, stamp_ns
+from attitude_ros.params import declare_scenario_node
 from attitude_ros.runner import run
-
-_LEVELS = {PlannerStatus.TRACKING: DiagnosticStatus.OK, PlannerStatus.ARRIVED: DiagnosticStatus.OK,
-           PlannerStatus.STUCK: DiagnosticStatus.WARN,
-           PlannerStatus.INFEASIBLE: DiagnosticStatus.ERROR}
 
 
 class FepfPlannerNode(Node):
-    def __init__(self) -> None:
-        super().__init__("fepf_planner")
-        self.scenario = declare_scenario(self)
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(node_graph.PLANNER.node_name, **kwargs)
+        _, self.scenario = declare_scenario_node(self, node_graph.PLANNER.parameters)
         self.exact = self.scenario.keep_out(samples=16)
-        build_planner(self.scenario)  # builds the fuzzy lookup tables before the first state
-        self.planner = None
+        FepfPlanner.from_scenario(self.scenario)  # builds the FIS lookup tables up front
+        self.planner: FepfPlanner | None = None
         self.last_stamp_ns = None
         self.rejected = 0
         self.status = None
@@ -79,7 +75,7 @@ class FepfPlannerNode(Node):
             return
         sigma_bn = mrp_from_quaternion(msg.quaternion)
         if self.planner is None:
-            self.planner = build_planner(self.scenario, sigma_0=sigma_bn)
+            self.planner = FepfPlanner.from_scenario(self.scenario, sigma_0=sigma_bn)
             self.get_logger().info(f"planning from sigma_BN = {sigma_bn.round(6).tolist()}")
         t0 = time.perf_counter()
         out = self.planner.step()
@@ -94,7 +90,7 @@ class FepfPlannerNode(Node):
         self.publish()
         if out.status != self.status:
             self.status = out.status
-            self.pub_status.publish(String(data=out.status))
+            self.pub_status.publish(String(data=out.status.value))
             self.get_logger().info(f"status {out.status} at stamp {stamp / 1e9:.3f} s")
 
     def publish(self) -> None:
@@ -103,21 +99,19 @@ class FepfPlannerNode(Node):
         self.pub_margin.publish(self.out_margin)
         self.pub_diag.publish(self.out_diag)
 
-    def diagnostics(self, stamp, out, step_s: float) -> DiagnosticArray:
-        values = (("status", out.status), ("step_time_us", f"{step_s * 1e6:.3f}"),
-                  ("obstacle_distance_mrp", repr(float(out.obstacle_distance_mrp))),
-                  ("keep_out_margin_deg", repr(self.out_margin.data)),
-                  ("m_a", repr(float(out.m_a))), ("m_r", repr(float(out.m_r))),
-                  ("rejected_messages", str(self.rejected)))
-        status = DiagnosticStatus(level=_LEVELS[out.status], name="fepf_planner",
-                                  message=out.status, hardware_id="attitude_planner",
-                                  values=[KeyValue(key=k, value=v) for k, v in values])
+    def diagnostics(self, stamp, out: PlannerOutput, step_s: float) -> DiagnosticArray:
+        report = diagnostics.PlannerDiagnostics(
+            out.status, step_s, out.obstacle_distance_mrp, self.out_margin.data, out.m_a,
+            out.m_r, self.rejected)
+        status = DiagnosticStatus(level=bytes([out.status.level]), name=diagnostics.STATUS_NAME,
+                                  message=out.status.value, hardware_id=diagnostics.HARDWARE_ID,
+                                  values=[KeyValue(key=k, value=v) for k, v in report.values()])
         diag = DiagnosticArray(status=[status])
         diag.header.stamp = stamp
         return diag
 
 
-def main(args=None) -> int:
+def main(args: list[str] | None = None) -> int:
     return run(FepfPlannerNode, args)
 
 

@@ -42,11 +42,25 @@ def mrp_from_quaternion(q) -> np.ndarray:
     return mrp_from_quat(quaternion_xyzw(q))
 
 
-def reject(node, topic: str, reason: str) -> None:
-    """Count (``node.rejected``) and log, throttled, a refused incoming message."""
-    node.rejected += 1
-    node.get_logger().warning(f"rejected {topic} message ({node.rejected} so far): {reason}",
+def reject(node, topic: str, reason: str, count: int | None = None) -> None:
+    """Log, throttled, a refused incoming message; count it in ``node.rejected`` unless
+    the caller's core already counted it (``count``: the total so far)."""
+    if count is None:
+        node.rejected += 1
+        count = node.rejected
+    node.get_logger().warning(f"rejected {topic} message ({count} so far): {reason}",
                               throttle_duration_sec=1.0)
+
+
+def log_events(logger, events) -> None:
+    """Log the ``(level, text)`` pairs a core state machine returned."""
+    for level, text in events:  # one call site per severity, as rclpy's logger requires
+        if level == "error":
+            logger.error(text)
+        elif level == "warning":
+            logger.warning(text)
+        else:
+            logger.info(text)
 
 
 def bad_vector(values, name: str) -> str | None:

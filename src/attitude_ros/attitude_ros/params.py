@@ -1,24 +1,33 @@
-"""Declare the scenario's ROS 2 parameters on a node and build the validated Scenario.
+"""Declare a node's parameter table (:mod:`attitude_core.node_parameters`) on the node.
 
-Every key of :func:`attitude_core.scenario.parameter_specs` is declared up front with a
-read-only descriptor (type, description, range). Keys without a value in the
-parameters file are left unset so that the one scenario loader supplies its defaults;
-the values are then validated by :func:`attitude_core.scenario.parse_scenario`, with
-every parameter given to the node that no one declared (a typo) so that the loader
-refuses it as it refuses it in a file. Relative data-file paths are resolved against
-the node's working directory (``attitude-run`` starts the nodes in the scenario's
-directory, so they resolve as :func:`~attitude_core.scenario.load_scenario` resolves them).
+Each row becomes one declared parameter with a descriptor built from the row: type,
+description with its rule, read-only flag, and a floating-point or integer range when
+the row has closed bounds. A row without a default is declared typed and unset.
+
+A node that reads the scenario validates the whole scenario with the one loader
+(:func:`attitude_core.scenario.parse_scenario`): the rows it declares, plus every other
+parameter given to it (file or ``-p``) that it did not declare. So a scenario file is
+accepted or refused by every node exactly as by ``load_scenario``, including a typo
+in a key the node does not read. Relative data-file paths are resolved against the
+node's working directory (``attitude-run`` starts the nodes in the scenario's directory,
+so they resolve as ``load_scenario`` resolves them).
 """
 
 from __future__ import annotations
 
 import os
+from typing import Any
 
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, ParameterType
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 from rclpy.exceptions import ParameterUninitializedException
+from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from attitude_core.scenario import Scenario, ScenarioError, parameter_specs, parse_scenario
+from attitude_core.node_parameters import NodeParameters
+from attitude_core.parameters import NodeParameterError, Param, ParameterError, values_from
+from attitude_core.scenario import Scenario, ScenarioError, parse_scenario, scenario_keys
+
+__all__ = ["descriptor", "declare_node_parameters", "declare_scenario_node"]
 
 _TYPES = {
     "double": (Parameter.Type.DOUBLE, ParameterType.PARAMETER_DOUBLE),
@@ -30,70 +39,100 @@ _TYPES = {
 }
 
 
-def descriptor(name: str, ros_type: str, description: str, *, read_only: bool = True,
-               value_range: tuple[float, float] | None = None) -> ParameterDescriptor:
-    """A parameter descriptor; ``value_range`` gives closed bounds for a double."""
-    d = ParameterDescriptor(name=name, type=_TYPES[ros_type][1], description=description,
-                            read_only=read_only)
-    if value_range is not None and ros_type == "double":
+def descriptor(row: Param) -> ParameterDescriptor:
+    """The ROS 2 descriptor of a row (closed bounds as a range; the exact rule in text)."""
+    d = ParameterDescriptor(name=row.key, type=_TYPES[row.ros_type][1],
+                            description=row.full_description, read_only=row.read_only)
+    closed = row.bounds.closed() if row.bounds is not None else None
+    if closed is not None and row.ros_type == "double":
         d.floating_point_range = [FloatingPointRange(
-            from_value=float(value_range[0]), to_value=float(value_range[1]), step=0.0)]
+            from_value=float(closed[0]), to_value=float(closed[1]), step=0.0)]
+    elif closed is not None and row.ros_type == "integer":
+        d.integer_range = [IntegerRange(from_value=int(closed[0]), to_value=int(closed[1]),
+                                        step=1)]
     return d
 
 
-def declare(node, name: str, ros_type: str, description: str, default=None, *,
-            read_only: bool = True, value_range=None):
-    """Declare one parameter (typed; unset when ``default`` is None) and return its value
-    (None when unset)."""
-    desc = descriptor(name, ros_type, description, read_only=read_only,
-                      value_range=value_range)
-    value = _TYPES[ros_type][0] if default is None else default
-    node.declare_parameter(name, value, desc)
-    try:
-        return node.get_parameter(name).value
-    except ParameterUninitializedException:
-        return None
-
-
-def _plain(value):
+def _plain(value: Any) -> Any:
     """rclpy arrays (array.array, numpy) -> lists, as the YAML loader would give them."""
     if isinstance(value, (str, bool, int, float)) or value is None:
         return value
     return list(value)
 
 
-def declare_scenario(node) -> Scenario:
-    """Declare every scenario parameter on ``node`` and return the validated scenario.
+def _declare(node: Node, row: Param, source: str, error: type[ParameterError],
+             with_default: bool) -> Any:
+    """Declare one row; its value (None when unset). Scenario rows are declared without
+    their default (``with_default`` False): unset, the loader supplies it. rclpy's
+    refusals (wrong type, out of range) become ``error`` naming the key."""
+    if row.required or not with_default:
+        value = _TYPES[row.ros_type][0]   # typed and unset
+    else:
+        value = list(row.default) if isinstance(row.default, tuple) else row.default
+    try:
+        node.declare_parameter(row.key, value, descriptor(row))
+        return _plain(node.get_parameter(row.key).value)
+    except ParameterUninitializedException:
+        return None
+    except Exception as exc:  # rclpy: InvalidParameterTypeException, ...ValueException
+        raise error(source, row.key, f"{type(exc).__name__}: {exc}") from exc
 
-    Call it after the node's own parameters are declared. Raises
-    :class:`ScenarioError` (naming the key) on a missing, unknown or invalid value;
-    rclpy's own exceptions on a value of the wrong type are turned into one too.
+
+def declare_node_parameters(node: Node, table: NodeParameters
+                            ) -> tuple[dict[str, Any], Scenario | None]:
+    """Declare ``table`` on ``node``; return (own values by key, the validated scenario
+    or None when the node takes none).
+
+    Raises :class:`~attitude_core.parameters.NodeParameterError` or
+    :class:`~attitude_core.scenario.ScenarioError` (both :class:`ParameterError`) naming
+    the key on a missing, unknown or invalid value.
     """
     source = f"node '{node.get_fully_qualified_name()}' parameters"
-    flat: dict[str, object] = {}
-
-    def declare_spec(spec):
-        try:
-            value = declare(node, spec.name, spec.ros_type, spec.description,
-                            value_range=spec.value_range)
-        except Exception as exc:  # rclpy: InvalidParameterType/ValueException
-            raise ScenarioError(source, spec.name, f"{type(exc).__name__}: {exc}") from exc
+    given: dict[str, Any] = {}
+    for row in table.own:
+        value = _declare(node, row, source, NodeParameterError, with_default=True)
         if value is not None:
-            flat[spec.name] = _plain(value)
+            given[row.key] = value
+    own = values_from(table.own, given, source)  # rclpy checked type and range; rows the rest
+    if table.scenario is None:
+        return own, None
 
-    first = parameter_specs()
-    name_specs = [s for s in first if s.name.endswith(".names")]
-    for spec in name_specs:
-        declare_spec(spec)
-    # Each distinct name once: a duplicate is the loader's to report, on the names list.
-    instruments = tuple(dict.fromkeys(flat.get("instruments.names") or ()))
-    objects = tuple(dict.fromkeys(flat.get("bright_objects.names") or ()))
-    for spec in parameter_specs(instruments, objects):
-        if spec.name not in (s.name for s in name_specs):
-            declare_spec(spec)
-    # Parameters given to this node (file or -p) that nothing declared: typos.
+    flat: dict[str, Any] = {}
+
+    def declare_scenario_row(row: Param) -> None:
+        value = _declare(node, row, source, ScenarioError, with_default=False)
+        if value is not None:
+            flat[row.key] = value
+
+    rows = scenario_keys()
+    names_rows = [r for r in rows if r.key.endswith(".names")]
+    for row in names_rows:
+        if table.reads_scenario_key(row.key):
+            declare_scenario_row(row)
     overrides = getattr(node, "_parameter_overrides", {})  # rclpy keeps no public getter
+
+    def listed(group: str) -> tuple[str, ...]:
+        names = flat.get(f"{group}.names")
+        if names is None and f"{group}.names" in overrides:
+            names = _plain(overrides[f"{group}.names"].value)
+        # Each distinct name once: a duplicate is the loader's to report, on the list.
+        return tuple(dict.fromkeys(n for n in (names or ()) if isinstance(n, str)))
+
+    for row in scenario_keys(listed("instruments"), listed("bright_objects")):
+        if row not in names_rows and table.reads_scenario_key(row.key):
+            declare_scenario_row(row)
+    # Every other parameter given to this node: scenario keys it does not read, and typos.
     for name, parameter in overrides.items():
         if not node.has_parameter(name):
             flat[name] = _plain(parameter.value)
-    return parse_scenario(flat, source, base_dir=os.getcwd())
+    scenario = parse_scenario(flat, source, base_dir=os.getcwd(),
+                              also_known=tuple(r.key for r in table.own))
+    return own, scenario
+
+
+def declare_scenario_node(node: Node, table: NodeParameters) -> tuple[dict[str, Any], Scenario]:
+    """:func:`declare_node_parameters` for a node that reads the scenario."""
+    own, scenario = declare_node_parameters(node, table)
+    if scenario is None:
+        raise TypeError("declare_scenario_node: the table reads no scenario")
+    return own, scenario

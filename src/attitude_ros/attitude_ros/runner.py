@@ -13,18 +13,21 @@ import os
 import signal
 import sys
 import time
+from collections.abc import Callable
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
+from attitude_core.parameters import ParameterError
 from attitude_core.scenario import ScenarioError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
 
 
-def run(node_factory, args=None) -> int:
+def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     """Create the node with ``node_factory()``, spin it, and return the exit code.
 
     The node may set ``node.done = True`` to end the loop (end of a scenario) and
@@ -59,9 +62,10 @@ def run(node_factory, args=None) -> int:
             while rclpy.ok() and time.monotonic() < deadline and not drained():
                 executor.spin_once(timeout_sec=0.05)
         code = getattr(node, "exit_code", EXIT_OK)
-    except ScenarioError as err:
+    except ParameterError as err:  # a scenario key or a node-own parameter
         name = "node" if node is None else node.get_name()
-        print(f"[{name}] error: scenario: {err}", file=sys.stderr, flush=True)
+        what = "scenario" if isinstance(err, ScenarioError) else "parameter"
+        print(f"[{name}] error: {what}: {err}", file=sys.stderr, flush=True)
         code = EXIT_BAD_INPUT
     except (KeyboardInterrupt, ExternalShutdownException):
         code = getattr(node, "exit_code", EXIT_OK)

@@ -171,7 +171,7 @@ class BagWriter:
         self._start_ns: int | None = None
         self._end_ns: int | None = None
         self._closed = False
-        self._file = open(os.path.join(bag_dir, self.file_name), "xb")
+        self._file = open(os.path.join(bag_dir, self.file_name), "xb")  # noqa: SIM115 - closed by close()
         try:
             self._mcap = Writer(
                 self._file,

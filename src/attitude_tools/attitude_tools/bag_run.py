@@ -15,11 +15,21 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from attitude_core.diagnostics import PlannerDiagnostics
 from attitude_core.mrp import mrp_from_quat
-from attitude_core.offline import STATUS_CODES, RunResult, summarize
 from attitude_core.scenario import Scenario, loads_scenario
-from attitude_core.topics import (ANGULAR_VELOCITY, APPLIED_TORQUE, ATTITUDE, DIAGNOSTICS,
-                                  TARGET_MRP, TARGET_RATE, TORQUE, stamp_ns)
+from attitude_core.status import PlannerStatus
+from attitude_core.topics import (
+    ANGULAR_VELOCITY,
+    APPLIED_TORQUE,
+    ATTITUDE,
+    DIAGNOSTICS,
+    TARGET_MRP,
+    TARGET_RATE,
+    TORQUE,
+    stamp_ns,
+)
+from attitude_core.trajectory import RunResult, summarize
 
 from .bag import read_attachment, read_bag
 
@@ -76,17 +86,21 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
 
     quat = rows(ATTITUDE, lambda m: (m.quaternion.x, m.quaternion.y, m.quaternion.z,
                                      m.quaternion.w))
-    status = np.full(n, STATUS_CODES["tracking"], dtype=np.int8)
+    status = np.full(n, PlannerStatus.TRACKING.code, dtype=np.int8)
     d_obs = np.full(n, np.nan)
     step_s = np.full(n, np.nan)
     for k, s in enumerate(states[:n]):
         diag = by_topic[DIAGNOSTICS].get(s)
         if diag is None or not diag.status:
             continue
-        values = {kv.key: kv.value for kv in diag.status[0].values}
-        status[k] = STATUS_CODES.get(values.get("status"), status[k])
-        d_obs[k] = float(values.get("obstacle_distance_mrp", "nan"))
-        step_s[k] = float(values.get("step_time_us", "nan")) * 1e-6
+        try:
+            planner = PlannerDiagnostics.from_values(
+                {kv.key: kv.value for kv in diag.status[0].values})
+        except ValueError:  # not the planner's diagnostics: the step keeps no planner data
+            continue
+        status[k] = planner.status.code
+        d_obs[k] = planner.obstacle_distance_mrp
+        step_s[k] = planner.step_time_s
     run = RunResult(
         scenario=scenario,
         t=(stamps - stamps[0]) * 1e-9,
@@ -105,7 +119,7 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
 
 
 def summarize_bag(bag_run: BagRun) -> dict:
-    """``attitude_core.offline.summarize`` of the recorded run, plus the recording's own
+    """``attitude_core.trajectory.summarize`` of the recorded run, plus the recording's own
     figures: ``steps_recorded`` and ``steps_per_s`` (from the recorder's receive times)."""
     summary = summarize(bag_run.run)
     wall = bag_run.receive_wall_ns

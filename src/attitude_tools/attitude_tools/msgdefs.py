@@ -29,7 +29,7 @@ import json
 import os
 import re
 import sys
-from functools import lru_cache
+from functools import cache
 
 __all__ = [
     "SEPARATOR",
@@ -81,7 +81,7 @@ def _find_file(pkg: str, name: str, suffix: str, prefixes: tuple[str, ...]) -> s
     return None
 
 
-@lru_cache(maxsize=None)
+@cache
 def _msg_text(pkg: str, name: str, prefixes: tuple[str, ...]) -> str:
     path = _find_file(pkg, name, ".msg", prefixes)
     if path is None:
@@ -120,7 +120,7 @@ def message_dependencies(text: str, package: str) -> list[str]:
     return sorted(deps)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _definition(pkg: str, name: str, prefixes: tuple[str, ...]) -> str:
     seen: set[str] = set()
 
@@ -163,7 +163,7 @@ def type_description_hash(type_name: str) -> str:
     return _type_hash(pkg, name, search_prefixes())
 
 
-@lru_cache(maxsize=None)
+@cache
 def _type_hash(pkg: str, name: str, prefixes: tuple[str, ...]) -> str:
     path = _find_file(pkg, name, ".json", prefixes)
     if path is None:

@@ -3,9 +3,9 @@
 Starts the recorder, the planner, the controller and the simulator as separate
 processes with ``ros2 run <package> <executable> --ros-args ...`` (the real ROS 2 CLI
 where one is installed, else the project's ``ros2 run`` shim), waits until the
-planner reports arrived, stuck or infeasible (the recorder then records ``--settle-s``
-more run time, default 10 s, and closes the bag), or the scenario time ends, or a
-process fails; stops every process (SIGINT, then wait,
+planner reports a status that ends the slew (``PlannerStatus.ending()``; the recorder
+then records ``--settle-s`` more run time, default 10 s, and closes the bag), or the
+scenario time ends, or a process fails; stops every process (SIGINT, then wait,
 SIGKILL after a grace period), rebuilds the run from the bag alone and writes
 ``DIR/summary.json`` (the offline runner's fields plus the ROS run's own),
 ``DIR/bag/`` and ``DIR/logs/``. Exit code: 0 reached without violation, 1 otherwise
@@ -27,18 +27,15 @@ import sys
 import time
 from pathlib import Path
 
-from attitude_core.rundir import check_replaceable, publish, stage
+from attitude_core import node_graph as graph
+from attitude_core.node_graph import NodeSpec
 from attitude_core.scenario import ScenarioError, load_scenario
+from attitude_core.status import PlannerStatus
 
 from .bag_run import run_from_bag, summarize_bag
+from .rundir import check_replaceable, publish, stage
 
-NODES = (  # (package, executable, log name); the recorder first, the simulator last
-    ("attitude_bringup", "bag_recorder", "recorder"),
-    ("attitude_planner", "fepf_planner", "planner"),
-    ("attitude_controller", "pd_controller", "controller"),
-    ("spacecraft_sim", "rigid_body_sim", "simulator"),
-)
-STOP_STATUSES = ("arrived", "stuck", "infeasible")
+ROLES = tuple(n.role for n in graph.NODES)
 # Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
 # queues for up to 1.5 s and finishes the bag).
 NODE_GRACE_S, RECORDER_GRACE_S = 1.5, 3.0
@@ -99,14 +96,15 @@ class NodeGraph:
         self.ros2, self.env, self.log_dir, self.cwd = ros2, env, log_dir, cwd
         self.procs: dict[str, subprocess.Popen] = {}
 
-    def start(self, package: str, executable: str, name: str, ros_args: list[str]) -> None:
-        log = open(self.log_dir / f"{name}.log", "wb")
-        self.procs[name] = subprocess.Popen(
-            [self.ros2, "run", package, executable, "--ros-args", *ros_args],
-            env=self.env, cwd=self.cwd, stdout=log, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            start_new_session=True)  # we, not the terminal, decide the shutdown order
-        log.close()
+    def start(self, spec: NodeSpec, ros_args: list[str], name: str | None = None) -> None:
+        """Start ``spec``'s executable; its log and key are ``name`` (default: its role)."""
+        name = spec.role if name is None else name
+        with open(self.log_dir / f"{name}.log", "wb") as log:  # the child keeps its copy
+            self.procs[name] = subprocess.Popen(
+                [self.ros2, "run", spec.package, spec.executable, "--ros-args", *ros_args],
+                env=self.env, cwd=self.cwd, stdout=log, stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                start_new_session=True)  # we, not the terminal, decide the shutdown order
 
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}
@@ -140,7 +138,7 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
     to extra ``NAME:=VALUE`` parameters for it.
     """
     extra = {name: [arg for p in (node_params or {}).get(name, ()) for arg in ("-p", p)]
-             for _, _, name in NODES}
+             for name in ROLES}
     wall0 = time.monotonic()
     scenario = load_scenario(scenario_path)
     out = check_replaceable(out_dir, ("summary.json", "bag"), "run directory")
@@ -155,32 +153,33 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
     shutil.copyfile(scenario_path, tmp / "scenario.yaml")
     params = ["--params-file", str(Path(scenario_path).resolve())]
     # In the scenario's directory: relative data paths resolve as load_scenario does.
-    graph = NodeGraph(ros2, env, tmp / "logs", Path(scenario_path).resolve().parent)
+    nodes = NodeGraph(ros2, env, tmp / "logs", Path(scenario_path).resolve().parent)
     end_reason, failure = None, None
     stop_requested = []
     handlers = {s: signal.signal(s, lambda n, f: stop_requested.append(n))
                 for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        graph.start("attitude_bringup", "bag_recorder", "recorder", [
-            "-p", f"output_dir:={tmp / 'bag'}",
-            "-p", f"stop_on_planner_status:=[{','.join(STOP_STATUSES)}]",
-            "-p", f"stop_delay_s:={float(settle_s)!r}",
-            "-p", f"scenario_file:={tmp / 'scenario.yaml'}"] + extra["recorder"])
-        graph.start("attitude_planner", "fepf_planner", "planner", params + extra["planner"])
-        graph.start("attitude_controller", "pd_controller", "controller",
-                    params + extra["controller"])
-        graph.start("spacecraft_sim", "rigid_body_sim", "simulator", params + [
-            "-p", f"time_mode:={time_mode}", "-p", "lockstep.expected_subscribers:=3"]
-            + extra["simulator"])
+        ending = ",".join(status.value for status in PlannerStatus.ending())
+        own_args = {
+            graph.RECORDER.role: ["-p", f"output_dir:={tmp / 'bag'}",
+                             "-p", f"stop_on_planner_status:=[{ending}]",
+                             "-p", f"stop_delay_s:={float(settle_s)!r}",
+                             "-p", f"scenario_file:={tmp / 'scenario.yaml'}"],
+            graph.SIMULATOR.role: ["-p", f"time_mode:={time_mode}", "-p",
+                              f"lockstep.expected_subscribers:={graph.state_listeners()}"],
+        }
+        for spec in graph.NODES:  # in start order
+            scenario_args = params if spec.parameters.scenario is not None else []
+            nodes.start(spec, scenario_args + own_args.get(spec.role, []) + extra[spec.role])
         log(f"attitude-run: {scenario.name}: nodes started ({time_mode}); logs in {out / 'logs'}")
         while end_reason is None:
             time.sleep(0.02)
-            exited = graph.exited()
+            exited = nodes.exited()
             if stop_requested:
                 end_reason = failure = "interrupted"
-            elif exited.get("recorder") == 0:
+            elif exited.get(graph.RECORDER.role) == 0:
                 end_reason = "planner finished"
-            elif exited.get("simulator") == 0:
+            elif exited.get(graph.SIMULATOR.role) == 0:
                 end_reason = "scenario time ended"
             elif exited:
                 name, code = next(iter(exited.items()))
@@ -189,17 +188,18 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
                 end_reason = failure = f"timeout after {timeout_s:.0f} s"
     finally:
         stop_t0 = time.monotonic()
-        codes = graph.stop(["simulator", "planner", "controller"], NODE_GRACE_S)
-        codes.update(graph.stop(["recorder"], RECORDER_GRACE_S))
+        loop, observers = graph.STOP_ORDER
+        codes = nodes.stop([n.role for n in loop], NODE_GRACE_S)
+        codes.update(nodes.stop([n.role for n in observers], RECORDER_GRACE_S))
         shutdown_s = time.monotonic() - stop_t0
         for s, h in handlers.items():
             signal.signal(s, h)
     wall_s = time.monotonic() - wall0
     if failure:
-        for name in graph.exited():
-            if graph.procs[name].returncode not in (0, -signal.SIGINT):
-                log(f"attitude-run: {name} (exit {graph.procs[name].returncode}):\n"
-                    + graph.tail(name))
+        for name in nodes.exited():
+            if nodes.procs[name].returncode not in (0, -signal.SIGINT):
+                log(f"attitude-run: {name} (exit {nodes.procs[name].returncode}):\n"
+                    + nodes.tail(name))
     summary = None
     if (tmp / "bag" / "metadata.yaml").exists():
         try:
@@ -238,8 +238,9 @@ def main(argv=None) -> int:
                         help="wall-time limit (default 120 s, plus 1.5x the scenario time "
                              "in real time)")
     parser.add_argument("--settle-s", type=float, default=10.0,
-                        help="run time recorded after the planner reports arrived, stuck or "
-                             "infeasible, s (default 10: the body settles on the goal)")
+                        help="run time recorded after the planner reports a status that "
+                             f"ends the slew ({', '.join(PlannerStatus.ending())}), s "
+                             "(default 10: the body settles on the goal)")
     parser.add_argument("--workspace", default=None,
                         help="colcon install/ directory (default: this checkout's ros2_ws/install)")
     parser.add_argument("--param", action="append", default=[], metavar="NODE:NAME:=VALUE",
@@ -250,9 +251,9 @@ def main(argv=None) -> int:
     node_params: dict[str, list[str]] = {}
     for item in args.param:
         node, _, assignment = item.partition(":")
-        if node not in {name for _, _, name in NODES} or ":=" not in assignment:
+        if node not in ROLES or ":=" not in assignment:
             parser.error(f"--param {item!r}: expected NODE:NAME:=VALUE with NODE one of "
-                         f"{[name for _, _, name in NODES]}")
+                         f"{list(ROLES)}")
         node_params.setdefault(node, []).append(assignment)
     log = (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
     try:

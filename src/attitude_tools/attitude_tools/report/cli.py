@@ -17,7 +17,7 @@ import shutil
 import sys
 import time
 
-from attitude_core.rundir import check_replaceable, publish, stage
+from attitude_tools.rundir import check_replaceable, publish, stage
 
 from .data import BagError, load_run
 
@@ -59,7 +59,7 @@ def write_report(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> str:
 
 def _labels(runs, given) -> None:
     if given:
-        for run, label in zip(runs, given):
+        for run, label in zip(runs, given, strict=True):
             run.label = label
     elif len(runs) == 2 and runs[0].label == runs[1].label:
         for run in runs:

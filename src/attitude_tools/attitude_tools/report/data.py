@@ -14,9 +14,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attitude_core.offline import RunResult
 from attitude_core.scenario import Scenario
 from attitude_core.topics import CLOCK, stamp_ns
+from attitude_core.trajectory import RunResult
 
 from ..bag import read_bag
 from ..bag_run import BagRun, run_from_bag, summarize_bag

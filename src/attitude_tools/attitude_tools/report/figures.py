@@ -26,9 +26,19 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
 from attitude_core.metrics import arrival_time  # noqa: E402
 from attitude_core.mrp import to_principal  # noqa: E402
 
-from .geometry import (Pair, best_view, boresight_inertial, break_jumps,  # noqa: E402
-                       break_wraps, mrp_surface, pair_margin_on_sky, pairs_of, ra_dec_deg,
-                       sky_grid, small_circle)
+from .geometry import (  # noqa: E402
+    Pair,
+    best_view,
+    boresight_inertial,
+    break_jumps,
+    break_wraps,
+    mrp_surface,
+    pair_margin_on_sky,
+    pairs_of,
+    ra_dec_deg,
+    sky_grid,
+    small_circle,
+)
 
 __all__ = ["FIGURES", "render_figures"]
 
@@ -212,7 +222,7 @@ def fig_trajectory_boresight(ctx: _Context):
         run_handles.append(Line2D([], [], color=color, linewidth=2.0, label=label))
     run_handles += [Line2D([], [], color="black", label="start", **START),
                     Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL)]
-    for ax, (name, s_body, beta) in zip(axes[:, 0], instruments):
+    for ax, (name, s_body, beta) in zip(axes[:, 0], instruments, strict=True):
         pairs = [p for p in ctx.pairs if (p.instrument, p.boresight_body, p.half_angle_deg)
                  == (name, s_body, beta)]
         cone_handles = _draw_cones(ctx, ax, pairs)
@@ -447,7 +457,7 @@ def fig_margin(ctx: _Context):
     nrows = -(-n // ncols)
     fig, axes = plt.subplots(nrows, ncols, figsize=(6.0 * ncols, 3.3 * nrows + 0.8),
                              squeeze=False, sharex=True)
-    for ax, p in zip(axes.flat, panels):
+    for ax, p in zip(axes.flat, panels, strict=False):
         series = []
         for k, run in enumerate(ctx.runs):
             if p is None:

@@ -122,10 +122,11 @@ def _scenario_table(runs) -> str:
         ("instruments: boresight (body), half-angle",
          ["<br>".join(f"{e(n)}: {_vec(s)}, {b:g} deg" for n, s, b in zip(
              r.scenario.instrument_names, r.scenario.boresights_body,
-             r.scenario.half_angles_deg)) for r in runs]),
+             r.scenario.half_angles_deg, strict=True)) for r in runs]),
         ("bright objects: direction (inertial)",
          ["<br>".join(f"{e(n)}: {_vec(c)}" for n, c in zip(
-             r.scenario.bright_object_names, r.scenario.directions_inertial)) for r in runs]),
+             r.scenario.bright_object_names, r.scenario.directions_inertial, strict=True))
+          for r in runs]),
         ("initial / desired MRP",
          [f"{_vec(r.scenario.initial_mrp)} / {_vec(r.scenario.desired_mrp)}" for r in runs]),
         ("arrival tolerances",

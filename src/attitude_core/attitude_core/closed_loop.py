@@ -1,0 +1,53 @@
+"""The offline closed loop: FEPF planner, PD controller and rigid body in one process.
+
+The loop at step ``k`` (``t_k = k dt``): the planner gives the target
+``(sigma_t, omega_t)`` for ``t_k`` (eqs. 6-10, 12), the controller the torque ``u_k``
+from the body state at ``t_k`` (eq. 11), and the body is propagated to ``t_{k+1}`` with
+``u_k`` held (eqs. 3-4). The nodes run the same three functions, one per process.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .control import PdGains, pd_torque
+from .dynamics import RigidBody
+from .fepf import FepfPlanner
+from .scenario import Scenario
+from .trajectory import RunResult
+
+__all__ = ["run_closed_loop"]
+
+
+def run_closed_loop(scenario: Scenario) -> RunResult:
+    """Simulate the whole scenario (``sim_time_s``) and return the sampled trajectory."""
+    wall0 = time.perf_counter()
+    n = scenario.n_steps
+    dt = scenario.dt_s
+    planner = FepfPlanner.from_scenario(scenario)
+    gains = PdGains(scenario.kp, scenario.kd)
+    body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
+    sigma = np.empty((n + 1, 3))
+    omega = np.empty((n + 1, 3))
+    torque = np.empty((n + 1, 3))
+    sigma_t = np.empty((n + 1, 3))
+    omega_t = np.empty((n + 1, 3))
+    d_obs = np.empty(n + 1)
+    status = np.empty(n + 1, dtype=np.int8)
+    step_s = np.empty(n + 1)
+    clock = time.perf_counter
+    for k in range(n + 1):
+        c0 = clock()
+        target = planner.step()
+        step_s[k] = clock() - c0
+        u = pd_torque(gains, body.sigma_bn, body.omega_b, target.sigma_t, target.omega_t)
+        sigma[k], omega[k], torque[k] = body.sigma_bn, body.omega_b, u
+        sigma_t[k], omega_t[k] = target.sigma_t, target.omega_t
+        d_obs[k] = target.obstacle_distance_mrp
+        status[k] = target.status.code
+        if k < n:
+            body.step(u, dt)
+    return RunResult(scenario, dt * np.arange(n + 1), sigma, omega, torque, sigma_t, omega_t,
+                     d_obs, status, step_s, time.perf_counter() - wall0)

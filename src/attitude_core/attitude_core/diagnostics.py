@@ -1,0 +1,90 @@
+"""The planner's ``/diagnostics`` contract: status name, hardware id and value keys.
+
+The planner node writes one ``diagnostic_msgs/DiagnosticStatus`` per state stamp with
+the key/value pairs of :class:`PlannerDiagnostics`; the recorder (its stop rule) and the
+bag reader parse them back with :meth:`PlannerDiagnostics.from_values`. Values are text,
+as ``diagnostic_msgs/KeyValue`` requires: floats by ``repr`` (round-trip exact), the
+step time in microseconds with three decimals.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from .status import PlannerStatus
+
+__all__ = [
+    "STATUS_NAME",
+    "HARDWARE_ID",
+    "STATUS",
+    "STEP_TIME_US",
+    "OBSTACLE_DISTANCE_MRP",
+    "KEEP_OUT_MARGIN_DEG",
+    "M_A",
+    "M_R",
+    "REJECTED_MESSAGES",
+    "KEYS",
+    "PlannerDiagnostics",
+]
+
+STATUS_NAME = "fepf_planner"        # DiagnosticStatus.name
+HARDWARE_ID = "attitude_planner"    # DiagnosticStatus.hardware_id
+
+STATUS = "status"                                 # a PlannerStatus
+STEP_TIME_US = "step_time_us"                     # wall time of the planner step, us
+OBSTACLE_DISTANCE_MRP = "obstacle_distance_mrp"   # MRP distance to the closest inflated cone
+KEEP_OUT_MARGIN_DEG = "keep_out_margin_deg"       # exact margin of the measured attitude, deg
+M_A = "m_a"                                       # attractive FIS magnitude, MRP/s (eq. 6)
+M_R = "m_r"                                       # repulsive FIS magnitude, MRP/s (eq. 6)
+REJECTED_MESSAGES = "rejected_messages"           # refused input messages so far
+KEYS = (STATUS, STEP_TIME_US, OBSTACLE_DISTANCE_MRP, KEEP_OUT_MARGIN_DEG, M_A, M_R,
+        REJECTED_MESSAGES)
+
+
+@dataclass(frozen=True, slots=True)
+class PlannerDiagnostics:
+    """One planner step as reported on ``/diagnostics``."""
+
+    status: PlannerStatus
+    step_time_s: float
+    obstacle_distance_mrp: float
+    keep_out_margin_deg: float
+    m_a: float
+    m_r: float
+    rejected_messages: int
+
+    def values(self) -> list[tuple[str, str]]:
+        """The key/value pairs, in :data:`KEYS` order."""
+        return [(STATUS, self.status.value),
+                (STEP_TIME_US, f"{self.step_time_s * 1e6:.3f}"),
+                (OBSTACLE_DISTANCE_MRP, repr(float(self.obstacle_distance_mrp))),
+                (KEEP_OUT_MARGIN_DEG, repr(float(self.keep_out_margin_deg))),
+                (M_A, repr(float(self.m_a))),
+                (M_R, repr(float(self.m_r))),
+                (REJECTED_MESSAGES, str(int(self.rejected_messages)))]
+
+    @classmethod
+    def from_values(cls, values: Mapping[str, str]) -> PlannerDiagnostics:
+        """Parse the pairs of one status; a missing number is NaN (-1 for the count).
+
+        Raises ``ValueError`` when the status is missing or not a planner status.
+        """
+        def number(key: str) -> float:
+            return float(values.get(key, "nan"))
+
+        # PlannerStatus(value) is the value lookup; mypy checks it against the members'
+        # __new__ instead (python/mypy#10573).
+        return cls(status=PlannerStatus(values[STATUS]) if STATUS in values  # type: ignore[call-arg]
+                   else _missing_status(),
+                   step_time_s=number(STEP_TIME_US) * 1e-6,
+                   obstacle_distance_mrp=number(OBSTACLE_DISTANCE_MRP),
+                   keep_out_margin_deg=number(KEEP_OUT_MARGIN_DEG),
+                   m_a=number(M_A), m_r=number(M_R),
+                   rejected_messages=int(values.get(REJECTED_MESSAGES, "-1")))
+
+
+def _missing_status() -> PlannerStatus:
+    raise ValueError(f"planner diagnostics without a {STATUS!r} value")
+
+

@@ -1,0 +1,310 @@
+"""The simulator's stepping logic without ROS: start-up gate, lockstep handshake, real time.
+
+:class:`SimStepper` owns the rigid body (eqs. 3-4, RK4, shadow set) and decides, given
+the current wall time (``now``, monotonic seconds) and each input, what the simulator
+node must do; the node only converts messages and publishes what it is told.
+
+* Start-up: :meth:`poll_graph` with whether the graph is connected. The first step is
+  taken once it has stayed connected for :data:`SETTLE_S` (every endpoint has matched);
+  the run fails after ``startup_timeout_s`` without.
+* Lockstep (stamps are simulated time ``k dt``): the state of step ``k`` is published and
+  the body advances only on the torque stamped ``k`` (:meth:`on_torque`). :meth:`on_timer`
+  re-sends the state every ``resend_period_s`` while it is missing; after
+  ``torque_timeout_s`` the last torque is held for the step, at most ``max_held_steps``
+  steps in a row, then the torque is stale and zero torque is applied until a
+  controller answers again.
+* Real time (stamps are the node's clock): :meth:`on_timer` is called every ``dt_s`` and
+  steps with the latest torque held; a torque older than ``torque_stale_s`` (wall time
+  since it arrived) is stale: zero torque. A torque stamped before the one applied is
+  refused.
+
+Non-finite torques are refused in both modes. The run ends (exit code 0) after
+``n_steps`` steps.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from .dynamics import RigidBody
+from .node_parameters import LOCKSTEP, TIME_MODES
+from .scenario import Scenario
+
+__all__ = ["Action", "StepperConfig", "StateOut", "Decision", "SimStepper", "SETTLE_S"]
+
+SETTLE_S = 0.2
+"""Wall time the graph must stay connected before the first step, s."""
+
+Vector = npt.NDArray[np.float64]
+
+
+class Action(enum.Enum):
+    """What a call decided."""
+
+    WAIT = "wait"          # start-up: not connected yet (or settling)
+    START = "start"        # start-up: connected; the first state is published
+    FAIL = "fail"          # start-up: not connected before startup_timeout_s
+    NONE = "none"          # nothing to do
+    IGNORE = "ignore"      # lockstep: a torque for another step
+    REJECT = "reject"      # an unusable torque; ``reason`` says why
+    ACCEPT = "accept"      # real time: the torque is applied from the next step on
+    RESEND = "resend"      # lockstep: publish the same state again
+    ADVANCE = "advance"    # the body advanced one step with the commanded torque
+    HOLD = "hold"          # lockstep timeout: advanced with the last torque held
+    ZERO = "zero"          # stale torque: advanced with zero torque
+    FINISH = "finish"      # the scenario time has ended; ``exit_code`` 0
+
+
+@dataclass(frozen=True)
+class StepperConfig:
+    """The simulator's own parameters (:data:`attitude_core.node_parameters.SIMULATOR`)
+    and the scenario's step."""
+
+    dt_s: float
+    n_steps: int
+    time_mode: str = LOCKSTEP
+    resend_period_s: float = 0.2
+    torque_timeout_s: float = 2.0
+    max_held_steps: int = 1
+    torque_stale_s: float = 0.5
+    startup_timeout_s: float = 60.0
+
+    def __post_init__(self) -> None:
+        if self.time_mode not in TIME_MODES:
+            raise ValueError(f"time_mode must be one of {list(TIME_MODES)}, "
+                             f"got {self.time_mode!r}")
+
+    @classmethod
+    def from_parameters(cls, values: dict[str, Any], dt_s: float,
+                        n_steps: int) -> StepperConfig:
+        """From the simulator node's parameter values (dotted keys)."""
+        return cls(dt_s=dt_s, n_steps=n_steps, time_mode=values["time_mode"],
+                   resend_period_s=values["lockstep.resend_period_s"],
+                   torque_timeout_s=values["lockstep.torque_timeout_s"],
+                   max_held_steps=values["lockstep.max_held_steps"],
+                   torque_stale_s=values["realtime.torque_stale_s"],
+                   startup_timeout_s=values["startup_timeout_s"])
+
+
+@dataclass(frozen=True)
+class StateOut:
+    """A state to publish: ``stamp_ns`` on attitude and rate, ``clock_ns`` on ``/clock``."""
+
+    k: int
+    stamp_ns: int
+    clock_ns: int
+    sigma_bn: Vector
+    omega_b: Vector
+
+
+@dataclass
+class Decision:
+    """The outcome of one call. ``applied``: publish this torque, stamped with the
+    previous state, as applied over the step just taken. ``state``: publish this state
+    (``resend``: the current one again). ``logs``: (level, text) pairs to log."""
+
+    action: Action
+    applied: Vector | None = None
+    applied_stamp_ns: int | None = None
+    state: StateOut | None = None
+    resend: bool = False
+    exit_code: int | None = None
+    reason: str | None = None
+    logs: list[tuple[str, str]] = field(default_factory=list)
+
+
+class SimStepper:
+    """See the module docstring. ``created`` is the wall time the start-up clock starts."""
+
+    def __init__(self, config: StepperConfig, body: RigidBody, created: float) -> None:
+        self.cfg = config
+        self.body = body
+        self.dt_ns = int(round(config.dt_s * 1e9))
+        self.k = 0
+        self.torque: Vector = np.zeros(3)
+        self.waiting_stamp: int | None = None   # lockstep: the state awaiting its torque
+        self.state_stamp: int | None = None     # stamp of the state last published
+        self.sent_at = self.first_sent_at = 0.0
+        self.resends = self.timeouts = self.rejected = 0
+        self.held_steps = 0                     # lockstep: consecutive timed-out steps
+        self.torque_stamp = -1                  # real time: stamp of the applied torque
+        self.torque_received_at: float | None = None
+        self.stale = False
+        self.done = False
+        self.exit_code: int | None = None
+        self.created = created
+        self.ready_since: float | None = None
+        self.started_at: float | None = None
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, parameters: dict[str, Any],
+                      created: float) -> SimStepper:
+        """The stepper of a scenario's body, with the simulator node's parameter values."""
+        config = StepperConfig.from_parameters(parameters, scenario.dt_s, scenario.n_steps)
+        body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
+        return cls(config, body, created)
+
+    @property
+    def lockstep(self) -> bool:
+        return self.cfg.time_mode == LOCKSTEP
+
+    # -- start-up -------------------------------------------------------------------
+
+    def poll_graph(self, now: float, ready: bool) -> Decision:
+        """Called periodically before the first step; START publishes the first state
+        in lockstep (real time: call :meth:`on_timer` at once, then every ``dt_s``)."""
+        if self.started_at is not None or self.done:
+            return Decision(Action.NONE)
+        if not ready:
+            self.ready_since = None
+            if now - self.created > self.cfg.startup_timeout_s:
+                self._finish(1)
+                return Decision(Action.FAIL, exit_code=1, logs=[(
+                    "error", f"graph not connected after {self.cfg.startup_timeout_s} s")])
+            return Decision(Action.WAIT)
+        if self.ready_since is None:
+            self.ready_since = now
+        if now - self.ready_since < SETTLE_S:
+            return Decision(Action.WAIT)
+        self.started_at = now
+        decision = Decision(Action.START, logs=[("info", "graph connected; starting")])
+        if self.lockstep:
+            decision.state = self._state(now, self.k * self.dt_ns)
+        return decision
+
+    # -- inputs ---------------------------------------------------------------------
+
+    def on_torque(self, now: float, stamp_ns: int, torque: Vector) -> Decision:
+        """A commanded torque (body axes, N m) stamped ``stamp_ns``."""
+        u = np.asarray(torque, dtype=float)
+        if not all(math.isfinite(x) for x in u):
+            return self._reject(f"torque has a non-finite element {u.tolist()}")
+        if self.done:
+            return Decision(Action.IGNORE)
+        if not self.lockstep:
+            if stamp_ns < self.torque_stamp:
+                return self._reject(f"stamp {stamp_ns} ns is older than the applied "
+                                    f"torque's {self.torque_stamp} ns")
+            self.torque, self.torque_stamp = u, stamp_ns
+            self.torque_received_at = now
+            return Decision(Action.ACCEPT, logs=self._set_stale(False))
+        if stamp_ns != self.waiting_stamp:
+            return Decision(Action.IGNORE)
+        self.held_steps = 0
+        logs = self._set_stale(False)
+        decision = self._advance(now, u, Action.ADVANCE)
+        decision.logs[:0] = logs
+        return decision
+
+    def on_timer(self, now: float, clock_ns: int = 0) -> Decision:
+        """Lockstep: the torque deadline check (call often, e.g. every 20 ms). Real time:
+        one step (call every ``dt_s``; ``clock_ns`` is the node's clock, the stamp)."""
+        if self.done or self.started_at is None:
+            return Decision(Action.NONE)
+        return self._deadline(now) if self.lockstep else self._tick(now, clock_ns)
+
+    # -- lockstep -------------------------------------------------------------------
+
+    def _deadline(self, now: float) -> Decision:
+        if self.waiting_stamp is None:
+            return Decision(Action.NONE)
+        if now - self.first_sent_at > self.cfg.torque_timeout_s:
+            self.timeouts += 1
+            self.held_steps += 1
+            if self.held_steps > self.cfg.max_held_steps:
+                logs = self._set_stale(True)
+                self.torque = np.zeros(3)
+                action = Action.ZERO
+            else:
+                logs = [("warning", f"no torque for step {self.k} after "
+                                    f"{self.cfg.torque_timeout_s} s; holding the last torque "
+                                    f"{self.torque.tolist()} N m")]
+                action = Action.HOLD
+            decision = self._advance(now, self.torque, action)
+            decision.logs[:0] = logs
+            return decision
+        if now - self.sent_at > self.cfg.resend_period_s:
+            self.resends += 1
+            self.sent_at = now
+            return Decision(Action.RESEND, resend=True)
+        return Decision(Action.NONE)
+
+    def _advance(self, now: float, torque: Vector, action: Action) -> Decision:
+        """The torque for step k is known: integrate to k + 1 and publish that state."""
+        self.torque = torque
+        self.waiting_stamp = None
+        applied, applied_stamp = np.array(torque, dtype=float), self.state_stamp
+        if self.k >= self.cfg.n_steps:
+            decision = self._end(now, applied)
+            decision.applied_stamp_ns = applied_stamp
+            return decision
+        self.body.step(torque, self.cfg.dt_s)
+        self.k += 1
+        return Decision(action, applied=applied, applied_stamp_ns=applied_stamp,
+                        state=self._state(now, self.k * self.dt_ns))
+
+    # -- real time ------------------------------------------------------------------
+
+    def _tick(self, now: float, clock_ns: int) -> Decision:
+        if self.k > self.cfg.n_steps:
+            return self._end(now, None)
+        logs: list[tuple[str, str]] = []
+        action = Action.ADVANCE
+        if (self.torque_received_at is not None
+                and now - self.torque_received_at > self.cfg.torque_stale_s):
+            logs = self._set_stale(True)
+            self.torque = np.zeros(3)
+            self.torque_received_at = None
+        if self.stale:
+            action = Action.ZERO
+        applied, applied_stamp = None, None
+        if self.k > 0:
+            applied, applied_stamp = np.array(self.torque, dtype=float), self.state_stamp
+            self.body.step(self.torque, self.cfg.dt_s)
+        state = self._state(now, clock_ns)
+        self.k += 1
+        return Decision(action, applied=applied, applied_stamp_ns=applied_stamp, state=state,
+                        logs=logs)
+
+    # -- shared ---------------------------------------------------------------------
+
+    def _state(self, now: float, stamp_ns: int) -> StateOut:
+        clock_ns = self.k * self.dt_ns
+        self.state_stamp = stamp_ns
+        if self.lockstep:
+            self.waiting_stamp = stamp_ns
+        self.sent_at = self.first_sent_at = now
+        return StateOut(self.k, stamp_ns, clock_ns, self.body.sigma_bn.copy(),
+                        self.body.omega_b.copy())
+
+    def _reject(self, reason: str) -> Decision:
+        self.rejected += 1
+        return Decision(Action.REJECT, reason=reason)
+
+    def _set_stale(self, stale: bool) -> list[tuple[str, str]]:
+        logs = []
+        if stale and not self.stale:
+            logs.append(("error", "torque is stale: applying zero torque until a controller "
+                                  "answers again"))
+        elif self.stale and not stale:
+            logs.append(("info", "torque received again"))
+        self.stale = stale
+        return logs
+
+    def _end(self, now: float, applied: Vector | None) -> Decision:
+        self._finish(0)
+        wall = now - (self.started_at if self.started_at is not None else now)
+        n = self.cfg.n_steps
+        text = (f"scenario time ended: {n} steps in {wall:.3f} s wall "
+                f"({n / max(wall, 1e-9):.0f} steps/s); {self.resends} re-sends, "
+                f"{self.timeouts} torque timeouts, {self.rejected} rejected torques")
+        return Decision(Action.FINISH, applied=applied, exit_code=0, logs=[("info", text)])
+
+    def _finish(self, code: int) -> None:
+        self.done, self.exit_code = True, code

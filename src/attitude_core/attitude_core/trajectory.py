@@ -1,0 +1,79 @@
+"""The sampled closed-loop trajectory of a run and its summary figures.
+
+One record for every source of a run: the offline loop
+(:func:`attitude_core.closed_loop.run_closed_loop`), a run rebuilt from its bag
+(``attitude_tools.bag_run``) and the reports. :func:`summarize` gives the fields of
+``summary.json``; margins are measured on the body's attitude, densely
+(:func:`attitude_core.metrics.dense_min_margin_deg`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .metrics import arrival_time, dense_min_margin_deg, path_length_mrp
+from .scenario import Scenario
+from .status import PlannerStatus
+
+__all__ = ["RunResult", "summarize"]
+
+
+@dataclass
+class RunResult:
+    """Sampled closed-loop trajectory; row ``k`` is time ``t_k`` (``N + 1`` rows)."""
+
+    scenario: Scenario
+    t: np.ndarray
+    sigma_bn: np.ndarray
+    omega_b: np.ndarray
+    torque_b: np.ndarray          # torque applied over [t_k, t_k+1); last row repeats
+    sigma_t: np.ndarray
+    omega_t: np.ndarray
+    obstacle_distance_mrp: np.ndarray
+    planner_status: np.ndarray    # PlannerStatus.code
+    planner_step_s: np.ndarray    # wall time of each planner step call
+    wall_time_s: float
+
+
+def summarize(run: RunResult) -> dict[str, Any]:
+    """Summary figures of a run (the fields of ``summary.json``)."""
+    sc = run.scenario
+    geometry = sc.keep_out()
+    min_margin, t_min = dense_min_margin_deg(geometry, run.t, run.sigma_bn, run.omega_b)
+    reached, t_reach, err_deg = arrival_time(
+        run.t, run.sigma_bn, run.omega_b, sc.desired_mrp,
+        sc.arrival.attitude_tol_deg, sc.arrival.rate_tol_rad_s)
+    arrived = np.flatnonzero(run.planner_status == PlannerStatus.ARRIVED.code)
+    stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
+    per_pair = geometry.margins_deg(run.sigma_bn).min(axis=0)
+    # Planner cost while it is working (arrived/stuck steps return at once).
+    tracking = run.planner_status == PlannerStatus.TRACKING.code
+    step_s = run.planner_step_s[tracking] if tracking.any() else run.planner_step_s
+    return {
+        "scenario": sc.name,
+        "planner_variant": sc.planner.variant,
+        "reached": bool(reached),
+        "t_reach_s": None if t_reach is None else round(t_reach, 9),
+        "t_plan_arrival_s": round(float(run.t[arrived[0]]), 9) if len(arrived) else None,
+        "planner_stuck": stuck,
+        "min_margin_deg": min_margin,
+        "t_min_margin_s": round(t_min, 9),
+        "min_margin_deg_per_pair": {
+            f"{sc.instrument_names[i]}/{sc.bright_object_names[j]}": float(per_pair[i, j])
+            for i in range(len(sc.instrument_names)) for j in range(len(sc.bright_object_names))
+        },
+        "path_length_mrp": path_length_mrp(run.sigma_bn),
+        "target_path_length_mrp": path_length_mrp(run.sigma_t),
+        "final_attitude_error_deg": float(err_deg[-1]),
+        "final_rate_rad_s": float(np.linalg.norm(run.omega_b[-1])),
+        "peak_rate_rad_s": float(np.max(np.linalg.norm(run.omega_b, axis=1))),
+        "peak_torque_nm": float(np.max(np.linalg.norm(run.torque_b, axis=1))),
+        "planner_step_us_median": float(np.median(step_s) * 1e6),
+        "planner_step_us_p99": float(np.percentile(step_s, 99) * 1e6),
+        "sim_time_s": sc.sim_time_s,
+        "dt_s": sc.dt_s,
+        "wall_time_s": run.wall_time_s,
+    }

@@ -1,0 +1,52 @@
+"""Strict YAML reading for the core's data files (scenarios, FIS definitions).
+
+PyYAML's safe loader keeps the last of two equal mapping keys without a word; a
+duplicated parameter or membership term would then silently change the run. The loader
+here refuses them instead.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Hashable
+from typing import IO, Any
+
+import yaml
+
+__all__ = ["StrictLoader", "load_strict"]
+
+
+class StrictLoader(yaml.SafeLoader):
+    """SafeLoader that refuses duplicate mapping keys (PyYAML silently keeps the last).
+
+    A duplicate raises :class:`yaml.constructor.ConstructorError` ``duplicate key 'x'``
+    with the mark (line, column) of the second occurrence. Merge keys (``<<``) are
+    flattened first, so a key that overrides a merged one is a duplicate too.
+    """
+
+
+def _construct_mapping(
+    loader: StrictLoader, node: yaml.MappingNode, deep: bool = False
+) -> dict[Any, Any]:
+    loader.flatten_mapping(node)
+    seen: set[Any] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=deep)
+        if not isinstance(key, Hashable):
+            continue  # SafeLoader's construct_mapping refuses it: "found unhashable key"
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"duplicate key {key!r}", key_node.start_mark
+            )
+        seen.add(key)
+    return loader.construct_mapping(node, deep=deep)
+
+
+StrictLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+
+
+def load_strict(text_or_stream: str | bytes | IO[str] | IO[bytes]) -> Any:
+    """The YAML document in ``text_or_stream`` (``None`` if empty), read with :class:`StrictLoader`.
+
+    Raises :class:`yaml.YAMLError` (a duplicate key: its subclass ``ConstructorError``).
+    """
+    return yaml.load(text_or_stream, Loader=StrictLoader)  # noqa: S506 (safe loader subclass)

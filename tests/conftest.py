@@ -1,0 +1,167 @@
+"""Shared fixtures: a reserved ROS 2 domain per test (or per module fixture).
+
+Tests that start ROS 2 nodes must not share a DDS domain with each other, with a
+concurrent test run on the same machine, or with anything else using the
+``domain_coordinator`` convention of ROS 2 (``ament_cmake_ros``): a domain ``d`` is in
+use while some process holds a TCP socket bound to port ``DOMAIN_PORT_BASE + d`` on this
+host. We take the same base port, so our reservations and domain_coordinator's exclude
+each other. The socket is only bound (never listened on, so nothing can connect to it),
+it is not inherited by child processes (Python's default), and the kernel frees it when
+the test process ends, however it ends: a crashed run leaves no stale reservation.
+
+IDs are 1..101 only: on Linux the DDS ports of domain ``d`` (7400 + 250 d + ...) stay
+below the ephemeral port range (32768...) for those, and 0, the default domain, is left
+to interactive use. The IDs are tried in random order (unseeded); ``bind`` is atomic, so
+two processes can never hold the same one, and a taken port is simply skipped.
+"""
+
+from __future__ import annotations
+
+import os
+import random
+import socket
+import time
+from collections.abc import Iterator, Mapping
+
+import pytest
+
+DOMAIN_PORT_BASE = 22119  # domain_coordinator's _PORT_BASE
+DOMAIN_IDS = range(1, 102)
+
+
+class DomainReservation:
+    """A reserved ROS domain ID: held until :meth:`release` (or the ``with`` block ends)."""
+
+    def __init__(self, domain_id: int, sock: socket.socket) -> None:
+        self.id = domain_id
+        self._sock = sock
+
+    def env(self, base: Mapping[str, str] | None = None) -> dict[str, str]:
+        """A copy of ``base`` (default ``os.environ``) for this domain, discovery on this
+        host only (no static peers, no deprecated ``ROS_LOCALHOST_ONLY``)."""
+        return domain_environment(self.id, base)
+
+    def release(self) -> None:
+        self._sock.close()
+
+    def __enter__(self) -> DomainReservation:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+
+def domain_environment(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
+    env = dict(os.environ if base is None else base)
+    env["ROS_DOMAIN_ID"] = str(domain_id)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env.pop("ROS_STATIC_PEERS", None)
+    env.pop("ROS_LOCALHOST_ONLY", None)
+    return env
+
+
+def reserve_domain() -> DomainReservation:
+    """Reserve a free ROS domain ID in 1..101 (random order); fail if none is free."""
+    ids = list(DOMAIN_IDS)
+    random.SystemRandom().shuffle(ids)
+    for domain_id in ids:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        try:
+            sock.bind(("127.0.0.1", DOMAIN_PORT_BASE + domain_id))
+        except OSError:
+            sock.close()
+            continue
+        return DomainReservation(domain_id, sock)
+    pytest.fail(f"no free ROS domain ID: all of {DOMAIN_IDS.start}..{DOMAIN_IDS.stop - 1} are "
+                f"reserved (TCP ports {DOMAIN_PORT_BASE + DOMAIN_IDS.start}.."
+                f"{DOMAIN_PORT_BASE + DOMAIN_IDS.stop - 1} on 127.0.0.1 are bound): too many "
+                "concurrent ROS test runs, or leftover processes holding them (see `ss -tanp`)",
+                pytrace=False)
+
+
+class ClockProbe:
+    """An rclpy node (in a context of its own) on a reserved domain that follows the
+    simulator's ``/clock``, i.e. the simulated time ``k dt`` of the step it published last,
+    in lockstep and in real time alike. Best effort: it never holds back a publisher."""
+
+    def __init__(self, domain_id: int) -> None:
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+
+        from attitude_core.topics import CLOCK
+
+        self.clock_ns = -1  # latest simulated time seen; -1: none yet
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx, domain_id=domain_id)
+        self.node = rclpy.create_node("clock_probe", context=self.ctx)
+        self.node.create_subscription(
+            Clock, CLOCK, self._on_clock,
+            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+        self.executor = SingleThreadedExecutor(context=self.ctx)
+        self.executor.add_node(self.node)
+
+    def _on_clock(self, msg) -> None:
+        self.clock_ns = max(self.clock_ns, msg.clock.sec * 10**9 + msg.clock.nanosec)
+
+    @property
+    def clock_s(self) -> float:
+        return self.clock_ns * 1e-9
+
+    def wait_clock(self, t_s: float, timeout_s: float = 120.0, alive=lambda: True) -> float:
+        """Spin until the simulated time reaches ``t_s``; fail after ``timeout_s`` of wall
+        time, or as soon as ``alive()`` is false (e.g. the process under test exited).
+        Returns the simulated time seen."""
+        deadline = time.monotonic() + timeout_s
+        while self.clock_ns < round(t_s * 1e9):
+            if not alive():
+                pytest.fail(f"the process under test exited; simulated time at "
+                            f"{self.clock_s} s, waiting for {t_s} s", pytrace=False)
+            if time.monotonic() > deadline:
+                pytest.fail(f"simulated time stuck at {self.clock_s} s after {timeout_s} s "
+                            f"(waiting for {t_s} s)", pytrace=False)
+            self.executor.spin_once(timeout_sec=0.05)
+        return self.clock_s
+
+    def close(self) -> None:
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self.ctx.try_shutdown()
+
+
+@pytest.fixture(scope="session")
+def reserve_ros_domain():
+    """The reservation function, for module- or session-scoped fixtures::
+
+        with reserve_ros_domain() as domain:   # domain.id, domain.env()
+            ...
+    """
+    return reserve_domain
+
+
+@pytest.fixture
+def ros_domain() -> Iterator[int]:
+    """A ROS domain ID reserved for this test only (released after its teardown)."""
+    with reserve_domain() as domain:
+        yield domain.id
+
+
+@pytest.fixture
+def ros_env(ros_domain):
+    """``ros_env(base=None)``: a copy of ``base`` (default ``os.environ``) set to the test's
+    reserved domain, localhost discovery only."""
+    return lambda base=None: domain_environment(ros_domain, base)
+
+
+
+@pytest.fixture
+def clock_probe(ros_domain, monkeypatch):
+    """A :class:`ClockProbe` on the test's reserved domain (localhost discovery, like the
+    environment of ``ros_env``); closed after the test."""
+    monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+    monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
+    monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
+    probe = ClockProbe(ros_domain)
+    yield probe
+    probe.close()
