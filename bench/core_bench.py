@@ -50,22 +50,35 @@ def main():
     for name in ("case1", "case2", "case1_paper"):
         us = planner_step_times(load_scenario(f"{ROOT}/scenarios/{name}.yaml"), args.repeats)
         med, p99 = np.median(us), np.percentile(us, 99)
-        print(f"  {name:12s} n={len(us):5d}  median {med:6.1f} us  p99 {p99:6.1f} us  "
-              f"median/aim {med / AIM_STEP_US:.2f}")
+        print(
+            f"  {name:12s} n={len(us):5d}  median {med:6.1f} us  p99 {p99:6.1f} us  "
+            f"median/aim {med / AIM_STEP_US:.2f}"
+        )
     walls = []
     for _ in range(args.repeats):
         t0 = time.perf_counter()
         run_closed_loop(case1)
         walls.append(time.perf_counter() - t0)
     wall = statistics.median(walls)
-    print(f"offline case1: {case1.n_steps} steps, {case1.sim_time_s:.0f} s simulated, "
-          f"wall median {wall:.3f} s (min {min(walls):.3f})  "
-          f"sim/wall {case1.sim_time_s / wall:.0f}x  wall/aim {wall / AIM_CASE1_WALL_S:.2f}")
+    print(
+        f"offline case1: {case1.n_steps} steps, {case1.sim_time_s:.0f} s simulated, "
+        f"wall median {wall:.3f} s (min {min(walls):.3f})  "
+        f"sim/wall {case1.sim_time_s / wall:.0f}x  wall/aim {wall / AIM_CASE1_WALL_S:.2f}"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "attitude_tools.offline",
-                        f"{ROOT}/scenarios/case1.yaml", "--out", f"{tmp}/run", "--quiet"],
-                       check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "attitude_tools.offline",
+                f"{ROOT}/scenarios/case1.yaml",
+                "--out",
+                f"{tmp}/run",
+                "--quiet",
+            ],
+            check=True,
+        )
         cold = time.perf_counter() - t0
     print(f"attitude-offline case1 as a command (cold process): {cold:.2f} s wall")
 

@@ -24,8 +24,10 @@ def main():
     parser.add_argument("--scenarios", default="case1,case2,case1_paper,case2_paper")
     args = parser.parse_args()
     gammas = [float(g) for g in args.gammas.split(",")]
-    print("| scenario | variant | axis | gamma deg | reached | t_reach s | stuck | "
-          "min margin deg | path MRP | peak torque N m |")
+    print(
+        "| scenario | variant | axis | gamma deg | reached | t_reach s | stuck | "
+        "min margin deg | path MRP | peak torque N m |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|")
     for name in args.scenarios.split(","):
         base = load_scenario(f"{ROOT}/scenarios/{name}.yaml")
@@ -34,9 +36,12 @@ def main():
                 cfg = dataclasses.replace(base.planner, direction_axis=axis, gamma_deg=gamma)
                 s = summarize(run_closed_loop(dataclasses.replace(base, planner=cfg)))
                 t = f"{s['t_reach_s']:.1f}" if s["t_reach_s"] is not None else "-"
-                print(f"| {name} | {cfg.variant} | {axis} | {gamma:.0f} | {s['reached']} | {t} | "
-                      f"{s['planner_stuck']} | {s['min_margin_deg']:.2f} | "
-                      f"{s['path_length_mrp']:.3f} | {s['peak_torque_nm']:.2f} |", flush=True)
+                print(
+                    f"| {name} | {cfg.variant} | {axis} | {gamma:.0f} | {s['reached']} | {t} | "
+                    f"{s['planner_stuck']} | {s['min_margin_deg']:.2f} | "
+                    f"{s['path_length_mrp']:.3f} | {s['peak_torque_nm']:.2f} |",
+                    flush=True,
+                )
 
 
 if __name__ == "__main__":

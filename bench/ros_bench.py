@@ -40,12 +40,23 @@ AIM_STEPS_PER_S = 300.0
 
 def ros_run(scenario_path, mode, domain_id):
     """One `attitude-run` subprocess; return (wall s, exit code, summary or None, stderr)."""
-    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id),
-               ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+    env = dict(os.environ, ROS_DOMAIN_ID=str(domain_id), ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        proc = subprocess.run([f"{BIN}/attitude-run", scenario_path, "--out", f"{tmp}/run",
-                               "--mode", mode, "--quiet"], env=env, capture_output=True, text=True)
+        proc = subprocess.run(
+            [
+                f"{BIN}/attitude-run",
+                scenario_path,
+                "--out",
+                f"{tmp}/run",
+                "--mode",
+                mode,
+                "--quiet",
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - t0
         try:
             with open(f"{tmp}/run/summary.json") as f:
@@ -69,16 +80,19 @@ def row(name, xs, unit, fmt, aim=None, higher_is_better=False):
 
 
 def main():
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--scenario", default=f"{ROOT}/scenarios/case1.yaml")
     parser.add_argument("--mode", choices=("lockstep", "realtime"), default="lockstep")
     args = parser.parse_args()
     scen = load_scenario(args.scenario)
     lockstep = args.mode == "lockstep"
-    print(f"ROS benchmark: {scen.name} ({args.scenario}), {args.mode}, {args.repeats} repeat(s), "
-          f"{os.cpu_count()} cpu(s)")
+    print(
+        f"ROS benchmark: {scen.name} ({args.scenario}), {args.mode}, {args.repeats} repeat(s), "
+        f"{os.cpu_count()} cpu(s)"
+    )
 
     walls, rates, spans, ok = [], [], [], True
     for i, domain in enumerate(random.sample(range(1, 101), args.repeats), 1):
@@ -88,10 +102,12 @@ def main():
             ok = False
             continue
         good = code == 0 and s["reached"] and s["min_margin_deg"] > 0.0 and s["failure"] is None
-        print(f"  run {i} (domain {domain:3d}): exit {code}  reached {s['reached']}  "
-              f"t_reach {s['t_reach_s']} s  min margin {s['min_margin_deg']:.2f} deg  "
-              f"failure {s['failure']}  end '{s['end_reason']}'  steps {s['steps_recorded']}  "
-              f"wall {wall:.2f} s (summary {s['wall_time_s']:.2f} s)  -> {'ok' if good else 'BAD'}")
+        print(
+            f"  run {i} (domain {domain:3d}): exit {code}  reached {s['reached']}  "
+            f"t_reach {s['t_reach_s']} s  min margin {s['min_margin_deg']:.2f} deg  "
+            f"failure {s['failure']}  end '{s['end_reason']}'  steps {s['steps_recorded']}  "
+            f"wall {wall:.2f} s (summary {s['wall_time_s']:.2f} s)  -> {'ok' if good else 'BAD'}"
+        )
         if not good:
             print(f"    exit codes {s['exit_codes']}\n{err.strip()}")
             ok = False
@@ -110,16 +126,19 @@ def main():
         off_walls.append(time.perf_counter() - t0)
         with tempfile.TemporaryDirectory() as tmp:
             t0 = time.perf_counter()
-            subprocess.run([f"{BIN}/attitude-offline", args.scenario, "--out", f"{tmp}/run",
-                            "--quiet"], check=True)
+            subprocess.run(
+                [f"{BIN}/attitude-offline", args.scenario, "--out", f"{tmp}/run", "--quiet"],
+                check=True,
+            )
             cold_walls.append(time.perf_counter() - t0)
     n_samples = scen.n_steps + 1
     recorded = statistics.median(spans) / scen.dt_s
 
     print("\nfigure                              median unit  (min .. max)")
     print("ROS 2 node graph (attitude-run subprocess)")
-    wall = row("end-to-end wall, start to exit", walls, "s", "8.2f",
-               AIM_WALL_S if lockstep else None)
+    wall = row(
+        "end-to-end wall, start to exit", walls, "s", "8.2f", AIM_WALL_S if lockstep else None
+    )
     if lockstep:
         rate = row("lockstep steps/s", rates, "1/s", "8.1f", AIM_STEPS_PER_S, True)
     else:
@@ -129,8 +148,12 @@ def main():
     row("speed-up sim time / wall", [a / b for a, b in zip(spans, walls, strict=True)], "x", "8.1f")
     print(f"offline runner ({scen.n_steps} steps, {scen.sim_time_s:g} s simulated)")
     off = row("warm run_closed_loop wall", off_walls, "s", "8.3f")
-    row(f"  scaled to recorded {span:g} s", [w * recorded / n_samples for w in off_walls],
-        "s", "8.3f")
+    row(
+        f"  scaled to recorded {span:g} s",
+        [w * recorded / n_samples for w in off_walls],
+        "s",
+        "8.3f",
+    )
     off_rate = row("offline steps/s", [n_samples / w for w in off_walls], "1/s", "8.0f")
     cold = row("cold attitude-offline wall", cold_walls, "s", "8.2f")
     print("ratios (medians)")

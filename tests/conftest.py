@@ -72,11 +72,13 @@ def reserve_domain() -> DomainReservation:
             sock.close()
             continue
         return DomainReservation(domain_id, sock)
-    pytest.fail(f"no free ROS domain ID: all of {DOMAIN_IDS.start}..{DOMAIN_IDS.stop - 1} are "
-                f"reserved (TCP ports {DOMAIN_PORT_BASE + DOMAIN_IDS.start}.."
-                f"{DOMAIN_PORT_BASE + DOMAIN_IDS.stop - 1} on 127.0.0.1 are bound): too many "
-                "concurrent ROS test runs, or leftover processes holding them (see `ss -tanp`)",
-                pytrace=False)
+    pytest.fail(
+        f"no free ROS domain ID: all of {DOMAIN_IDS.start}..{DOMAIN_IDS.stop - 1} are "
+        f"reserved (TCP ports {DOMAIN_PORT_BASE + DOMAIN_IDS.start}.."
+        f"{DOMAIN_PORT_BASE + DOMAIN_IDS.stop - 1} on 127.0.0.1 are bound): too many "
+        "concurrent ROS test runs, or leftover processes holding them (see `ss -tanp`)",
+        pytrace=False,
+    )
 
 
 class ClockProbe:
@@ -97,8 +99,11 @@ class ClockProbe:
         rclpy.init(context=self.ctx, domain_id=domain_id)
         self.node = rclpy.create_node("clock_probe", context=self.ctx)
         self.node.create_subscription(
-            Clock, CLOCK, self._on_clock,
-            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT))
+            Clock,
+            CLOCK,
+            self._on_clock,
+            QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+        )
         self.executor = SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.node)
 
@@ -116,11 +121,17 @@ class ClockProbe:
         deadline = time.monotonic() + timeout_s
         while self.clock_ns < round(t_s * 1e9):
             if not alive():
-                pytest.fail(f"the process under test exited; simulated time at "
-                            f"{self.clock_s} s, waiting for {t_s} s", pytrace=False)
+                pytest.fail(
+                    f"the process under test exited; simulated time at "
+                    f"{self.clock_s} s, waiting for {t_s} s",
+                    pytrace=False,
+                )
             if time.monotonic() > deadline:
-                pytest.fail(f"simulated time stuck at {self.clock_s} s after {timeout_s} s "
-                            f"(waiting for {t_s} s)", pytrace=False)
+                pytest.fail(
+                    f"simulated time stuck at {self.clock_s} s after {timeout_s} s "
+                    f"(waiting for {t_s} s)",
+                    pytrace=False,
+                )
             self.executor.spin_once(timeout_sec=0.05)
         return self.clock_s
 
@@ -134,8 +145,8 @@ class ClockProbe:
 def reserve_ros_domain():
     """The reservation function, for module- or session-scoped fixtures::
 
-        with reserve_ros_domain() as domain:   # domain.id, domain.env()
-            ...
+    with reserve_ros_domain() as domain:   # domain.id, domain.env()
+        ...
     """
     return reserve_domain
 
@@ -152,7 +163,6 @@ def ros_env(ros_domain):
     """``ros_env(base=None)``: a copy of ``base`` (default ``os.environ``) set to the test's
     reserved domain, localhost discovery only."""
     return lambda base=None: domain_environment(ros_domain, base)
-
 
 
 @pytest.fixture

@@ -64,11 +64,15 @@ def test_the_bad_set_is_large_and_every_file_has_a_header():
     for path in BAD_FILES:
         head = path.read_text(encoding="utf-8").splitlines()[:3]
         assert [line.split(":")[0] for line in head] == [
-            "# expect-key", "# expect-reason", "# defect"], path.name
+            "# expect-key",
+            "# expect-reason",
+            "# defect",
+        ], path.name
     assert ACCEPTED.is_file()
 
 
 # --- (a) the loader ----------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("path", BAD_FILES, ids=_ids(BAD_FILES))
 def test_loader_refuses_naming_the_key_and_the_reason(path):
@@ -95,6 +99,7 @@ def test_zero_byte_file_is_refused(tmp_path):
 
 # --- (b) attitude-offline and (c) attitude-run: exit 2, message, nothing written ----------
 
+
 def _check_refused(capsys, prog, path, code, tmp_path, before_tmp, before_bad):
     key, reason = expectation(path)
     out, err = capsys.readouterr()
@@ -106,7 +111,7 @@ def _check_refused(capsys, prog, path, code, tmp_path, before_tmp, before_bad):
         assert f": {key}: " in err, err
     assert "Traceback" not in err
     assert not (tmp_path / "out").exists()
-    assert _listing(tmp_path) == before_tmp      # no temporary run directory left behind
+    assert _listing(tmp_path) == before_tmp  # no temporary run directory left behind
     assert _listing(BAD_DIR) == before_bad
 
 
@@ -138,21 +143,30 @@ def test_attitude_run_exits_2_before_starting_anything(path, tmp_path, capsys, m
 # rcl's own message naming the file and line (exit 2); the others reach our parameter
 # check, which exits with 2 naming the key.
 NODE_CASES = {
-    "yaml_syntax_error": (2, ["Couldn't parse params file", "yaml_syntax_error.yaml",
-                              "line 13"]),                                    # file level, rcl
+    "yaml_syntax_error": (
+        2,
+        ["Couldn't parse params file", "yaml_syntax_error.yaml", "line 13"],
+    ),  # file level, rcl
     "duplicate_instrument_names": (2, ["instruments.names: duplicate names"]),  # list
-    "empty_file": (2, ["instruments.names: missing required key"]),          # file level, ours
-    "int_in_float_field": (2, ["dt_s: InvalidParameterTypeException",       # type
-                               "of type 'INTEGER', expecting type 'DOUBLE'"]),
+    "empty_file": (2, ["instruments.names: missing required key"]),  # file level, ours
+    "int_in_float_field": (
+        2,
+        [
+            "dt_s: InvalidParameterTypeException",  # type
+            "of type 'INTEGER', expecting type 'DOUBLE'",
+        ],
+    ),
     "half_angle_95": (2, ["instruments.star_tracker.half_angle_deg:", "out of range"]),  # range
-    "start_inside_cone": (2, ["initial_mrp: attitude is inside the keep-out cone"]),     # keep-out
+    "start_inside_cone": (2, ["initial_mrp: attitude is inside the keep-out cone"]),  # keep-out
     "unknown_top_level_key": (2, ["sim_time: unknown key; did you mean 'sim_time_s'?"]),  # typo
 }
 
 
 @pytest.mark.ros
-@pytest.mark.skipif(not WORKSPACE_SETUP.exists(),
-                    reason="colcon workspace not built (bash tools/bootstrap builds it)")
+@pytest.mark.skipif(
+    not WORKSPACE_SETUP.exists(),
+    reason="colcon workspace not built (bash tools/bootstrap builds it)",
+)
 @pytest.mark.parametrize("name", sorted(NODE_CASES))
 def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
     path = BAD_DIR / f"{name}.yaml"
@@ -166,9 +180,22 @@ def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
         pytest.skip("no ros2 command")
     try:
         proc = subprocess.run(
-            [ros2, "run", "attitude_planner", "fepf_planner", "--ros-args", "--params-file",
-             str(path)], env=env, cwd=tmp_path, stdin=subprocess.DEVNULL,
-            capture_output=True, text=True, timeout=60)
+            [
+                ros2,
+                "run",
+                "attitude_planner",
+                "fepf_planner",
+                "--ros-args",
+                "--params-file",
+                str(path),
+            ],
+            env=env,
+            cwd=tmp_path,
+            stdin=subprocess.DEVNULL,
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
     except subprocess.TimeoutExpired as exc:
         pytest.fail(f"the planner node accepted {path.name} and kept running: {exc.stderr}")
     output = proc.stdout + proc.stderr
@@ -182,6 +209,7 @@ def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
 
 # --- the documented decision: |sigma| > 1 is accepted through the shadow set ---------------
 
+
 def test_mrp_longer_than_one_is_accepted_as_its_shadow_set():
     given = yaml.safe_load(ACCEPTED.read_text())["/**"]["ros__parameters"]["initial_mrp"]
     given = np.array(given)
@@ -190,6 +218,6 @@ def test_mrp_longer_than_one_is_accepted_as_its_shadow_set():
     np.testing.assert_array_equal(sc.initial_mrp, shadow(given))
     assert np.linalg.norm(sc.initial_mrp) <= 1.0
     np.testing.assert_allclose(dcm_from_mrp(sc.initial_mrp), dcm_from_mrp(given), atol=1e-15)
-    case1 = load_scenario(CASE1)   # the same attitude as case1's sigma_0 = [0, 0, 0.25]
+    case1 = load_scenario(CASE1)  # the same attitude as case1's sigma_0 = [0, 0, 0.25]
     np.testing.assert_array_equal(sc.initial_mrp, case1.initial_mrp)
     np.testing.assert_array_equal(sc.desired_mrp, case1.desired_mrp)

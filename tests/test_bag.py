@@ -164,12 +164,14 @@ def test_metadata_yaml_matches_rosbag2_jazzy(recorded):
     assert info["starting_time"] == {"nanoseconds_since_epoch": start}
     assert info["duration"] == {"nanoseconds": end - start}
     assert info["relative_file_paths"] == ["run_0.mcap"]
-    assert info["files"] == [{
-        "path": "run_0.mcap",
-        "starting_time": {"nanoseconds_since_epoch": start},
-        "duration": {"nanoseconds": end - start},
-        "message_count": len(written),
-    }]
+    assert info["files"] == [
+        {
+            "path": "run_0.mcap",
+            "starting_time": {"nanoseconds_since_epoch": start},
+            "duration": {"nanoseconds": end - start},
+            "message_count": len(written),
+        }
+    ]
     assert (info["compression_format"], info["compression_mode"]) == ("", "")
     assert info["custom_data"] is None and info["ros_distro"] == "jazzy"
     topics = {t["topic_metadata"]["name"]: t for t in info["topics_with_message_count"]}
@@ -185,8 +187,10 @@ def test_metadata_yaml_matches_rosbag2_jazzy(recorded):
 
 def test_qos_same_in_channel_and_metadata(recorded):
     bag_dir, written, _ = recorded
-    info = {t["topic_metadata"]["name"]: t["topic_metadata"]
-            for t in bag_info(bag_dir)["topics_with_message_count"]}
+    info = {
+        t["topic_metadata"]["name"]: t["topic_metadata"]
+        for t in bag_info(bag_dir)["topics_with_message_count"]
+    }
     with open(os.path.join(bag_dir, "run_0.mcap"), "rb") as f:
         summary = make_reader(f).get_summary()
     for channel in summary.channels.values():
@@ -195,9 +199,19 @@ def test_qos_same_in_channel_and_metadata(recorded):
         from_channel = yaml.safe_load(channel.metadata["offered_qos_profiles"])
         assert from_channel == info[channel.topic]["offered_qos_profiles"]
     assert info["/attitude/quaternion"]["offered_qos_profiles"] == yaml.safe_load(
-        QOS_RELIABLE_LATCHED)
-    expected = Qos(QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL,
-                   INFINITE, INFINITE, QosLiveliness.AUTOMATIC, INFINITE, False)
+        QOS_RELIABLE_LATCHED
+    )
+    expected = Qos(
+        QosHistory.KEEP_LAST,
+        1,
+        QosReliability.RELIABLE,
+        QosDurability.TRANSIENT_LOCAL,
+        INFINITE,
+        INFINITE,
+        QosLiveliness.AUTOMATIC,
+        INFINITE,
+        False,
+    )
     with Reader(bag_dir) as reader:
         conn = next(c for c in reader.connections if c.topic == "/attitude/quaternion")
         assert conn.ext.offered_qos_profiles == [expected]
@@ -208,13 +222,26 @@ def test_qos_same_in_channel_and_metadata(recorded):
 
 def test_qos_profile_yaml_parses_like_rosbag2():
     text = qos_profile_yaml("best_effort", "volatile", 10)
-    assert parse_qos(text) == [Qos(QosHistory.KEEP_LAST, 10, QosReliability.BEST_EFFORT,
-                                   QosDurability.VOLATILE, INFINITE, INFINITE,
-                                   QosLiveliness.AUTOMATIC, INFINITE, False)]
+    assert parse_qos(text) == [
+        Qos(
+            QosHistory.KEEP_LAST,
+            10,
+            QosReliability.BEST_EFFORT,
+            QosDurability.VOLATILE,
+            INFINITE,
+            INFINITE,
+            QosLiveliness.AUTOMATIC,
+            INFINITE,
+            False,
+        )
+    ]
     profile = yaml.safe_load(text)[0]
     assert profile["history"] == "keep_last" and profile["liveliness"] == "automatic"
-    bad_args = [("reliable", "latched", 1), ("RELIABLE", "volatile", 1),
-                ("reliable", "volatile", -1)]
+    bad_args = [
+        ("reliable", "latched", 1),
+        ("RELIABLE", "volatile", 1),
+        ("reliable", "volatile", -1),
+    ]
     for bad in bad_args:
         with pytest.raises(ValueError):
             qos_profile_yaml(*bad)
@@ -223,8 +250,11 @@ def test_qos_profile_yaml_parses_like_rosbag2():
 def test_schema_text_of_quaternion_stamped(recorded):
     bag_dir, _, _ = recorded
     text = msgdefs.message_definition("geometry_msgs/msg/QuaternionStamped")
-    for section in ("MSG: std_msgs/Header\n", "MSG: builtin_interfaces/Time\n",
-                    "MSG: geometry_msgs/Quaternion\n"):
+    for section in (
+        "MSG: std_msgs/Header\n",
+        "MSG: builtin_interfaces/Time\n",
+        "MSG: geometry_msgs/Quaternion\n",
+    ):
         assert text.count(f"{SEP}\n{section}") == 1
     assert text.count(SEP) == 3
     with open(os.path.join(SHARE, "geometry_msgs/msg/QuaternionStamped.msg")) as f:
@@ -250,13 +280,22 @@ def _section(name):
 def test_message_definition_arrays_constants_same_package_types():
     # NavSatFix: float64[9], uint8 constants, bare same-package NavSatStatus (int8 constants)
     text = msgdefs.message_definition("sensor_msgs/msg/NavSatFix")
-    assert text == (_msg("sensor_msgs", "NavSatFix") + _section("sensor_msgs/NavSatStatus")
-                    + _section("std_msgs/Header") + _section("builtin_interfaces/Time"))
+    assert text == (
+        _msg("sensor_msgs", "NavSatFix")
+        + _section("sensor_msgs/NavSatStatus")
+        + _section("std_msgs/Header")
+        + _section("builtin_interfaces/Time")
+    )
     joint_state = msgdefs.message_definition("sensor_msgs/msg/JointState")  # string[], float64[]
-    assert joint_state == (_msg("sensor_msgs", "JointState") + _section("std_msgs/Header")
-                           + _section("builtin_interfaces/Time"))
-    for name, definition in (("sensor_msgs/msg/NavSatFix", text),
-                             ("sensor_msgs/msg/JointState", joint_state)):
+    assert joint_state == (
+        _msg("sensor_msgs", "JointState")
+        + _section("std_msgs/Header")
+        + _section("builtin_interfaces/Time")
+    )
+    for name, definition in (
+        ("sensor_msgs/msg/NavSatFix", text),
+        ("sensor_msgs/msg/JointState", joint_state),
+    ):
         assert name in generate_dynamic(name, definition)
         assert get_types_from_msg(definition, name)
 
@@ -266,7 +305,8 @@ def demo_prefix(tmp_path, monkeypatch):
     """An install prefix with a package demo_msgs using every field form."""
     msg_dir = tmp_path / "share" / "demo_msgs" / "msg"
     msg_dir.mkdir(parents=True)
-    (msg_dir / "Sample.msg").write_text(textwrap.dedent("""\
+    (msg_dir / "Sample.msg").write_text(
+        textwrap.dedent("""\
         # Every field form. A comment naming a type: geometry_msgs/Twist twist
         int8 MODE_IDLE=0
         int8 MODE_SLEW = 1  # constant with spaces
@@ -282,7 +322,8 @@ def demo_prefix(tmp_path, monkeypatch):
         Part main_part
         builtin_interfaces/Duration timeout
         geometry_msgs/Vector3[<=2] rates
-        """))
+        """)
+    )
     (msg_dir / "Part.msg").write_text("builtin_interfaces/Time stamp\nfloat32 mass_kg 1.5\n")
     (msg_dir / "Broken.msg").write_text("NoSuchType thing\n")
     monkeypatch.setenv("AMENT_PREFIX_PATH", str(tmp_path))
@@ -294,10 +335,15 @@ def test_message_definition_every_field_form(demo_prefix):
     sample = (demo_prefix / "share/demo_msgs/msg/Sample.msg").read_text()
     part = (demo_prefix / "share/demo_msgs/msg/Part.msg").read_text()
     # nested types sorted by name, depth first, each once (Time under Part, not under Header)
-    assert text == (sample + _section("builtin_interfaces/Duration")
-                    + f"\n{SEP}\nMSG: demo_msgs/Part\n" + part
-                    + _section("builtin_interfaces/Time")
-                    + _section("geometry_msgs/Vector3") + _section("std_msgs/Header"))
+    assert text == (
+        sample
+        + _section("builtin_interfaces/Duration")
+        + f"\n{SEP}\nMSG: demo_msgs/Part\n"
+        + part
+        + _section("builtin_interfaces/Time")
+        + _section("geometry_msgs/Vector3")
+        + _section("std_msgs/Header")
+    )
     assert "geometry_msgs/Twist" not in text.split(SEP, 1)[1]
 
 
@@ -332,8 +378,12 @@ def test_provisional_metadata_and_write_errors(tmp_path):
     assert info["message_count"] == 0 and info["topics_with_message_count"] == []
     assert info["starting_time"]["nanoseconds_since_epoch"] == 2**63 - 1
     bag.add_topic("/clock", "rosgraph_msgs/msg/Clock")
-    assert bag_info(str(tmp_path / "b"))["topics_with_message_count"][0]["topic_metadata"][
-        "offered_qos_profiles"] == []
+    assert (
+        bag_info(str(tmp_path / "b"))["topics_with_message_count"][0]["topic_metadata"][
+            "offered_qos_profiles"
+        ]
+        == []
+    )
     bag.add_topic("/clock", "rosgraph_msgs/msg/Clock")  # same again: no-op
     with pytest.raises(ValueError):
         bag.add_topic("/clock", "std_msgs/msg/String")
@@ -352,7 +402,8 @@ def test_provisional_metadata_and_write_errors(tmp_path):
     with pytest.raises(ValueError):
         bag.write("/clock", data, T0)
     assert [values(m.msg, "rosgraph_msgs/msg/Clock") for m in read_bag(str(tmp_path / "b"))] == [
-        values(Clock(clock=stamp(3)), "rosgraph_msgs/msg/Clock")]
+        values(Clock(clock=stamp(3)), "rosgraph_msgs/msg/Clock")
+    ]
 
 
 def test_attachment(tmp_path):
@@ -374,10 +425,12 @@ def test_attachment(tmp_path):
     with open(os.path.join(bag_dir, "att_0.mcap"), "rb") as f:
         attachments = list(make_reader(f).iter_attachments())
     assert [(a.name, a.media_type, a.data) for a in attachments] == [
-        ("scenario.yaml", "application/yaml", scenario)]
+        ("scenario.yaml", "application/yaml", scenario)
+    ]
     with Reader(bag_dir) as reader:
-        assert [STORE.deserialize_cdr(raw, c.msgtype).data for c, _, raw in reader.messages()] \
-            == [1.5]
+        assert [STORE.deserialize_cdr(raw, c.msgtype).data for c, _, raw in reader.messages()] == [
+            1.5
+        ]
     assert [m.msg.data for m in recover_messages(bag_dir)] == [1.5]
 
 
@@ -403,8 +456,9 @@ def test_chunk_compression(tmp_path, compression):
     expected = [f"step {i} " * 5 for i in range(30)]
     assert [m.msg.data for m in read_bag(bag_dir)] == expected
     with Reader(bag_dir) as reader:
-        assert [STORE.deserialize_cdr(raw, c.msgtype).data for c, _, raw in reader.messages()] \
-            == expected
+        assert [
+            STORE.deserialize_cdr(raw, c.msgtype).data for c, _, raw in reader.messages()
+        ] == expected
 
 
 def _write_float_bag(bag_dir, n, chunk_size=512):
@@ -420,8 +474,11 @@ def _complete_chunk_end_times(mcap_path, size):
     """message_end_time of each chunk (with its message indexes) within the first size bytes."""
     with open(mcap_path, "rb") as f:
         chunks = make_reader(f).get_summary().chunk_indexes
-    return [c.message_end_time for c in chunks
-            if c.chunk_start_offset + c.chunk_length + c.message_index_length <= size]
+    return [
+        c.message_end_time
+        for c in chunks
+        if c.chunk_start_offset + c.chunk_length + c.message_index_length <= size
+    ]
 
 
 def test_recover_unfinished_file(tmp_path):

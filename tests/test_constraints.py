@@ -7,12 +7,21 @@ from scipy.spatial.transform import Rotation
 
 from attitude_core.constraints import KeepOutGeometry
 
-PAPER = dict(boresights_body=[[1.0, 0.0, 0.0]], half_angles_deg=[20.0],
-             directions_inertial=[[0.0, -0.981, -0.196], [-1.0, 0.0, 0.0], [0.958, 0.0, 0.287]])
-TWO_INSTRUMENTS = dict(boresights_body=[[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]],
-                       half_angles_deg=[20.0, 12.0],
-                       directions_inertial=[[0.0, -0.981, -0.196], [-1.0, 0.0, 0.0],
-                                            [0.6, 0.64, 0.48], [0.0, 0.0, -1.0]])
+PAPER = dict(
+    boresights_body=[[1.0, 0.0, 0.0]],
+    half_angles_deg=[20.0],
+    directions_inertial=[[0.0, -0.981, -0.196], [-1.0, 0.0, 0.0], [0.958, 0.0, 0.287]],
+)
+TWO_INSTRUMENTS = dict(
+    boresights_body=[[1.0, 0.0, 0.0], [0.0, 0.6, 0.8]],
+    half_angles_deg=[20.0, 12.0],
+    directions_inertial=[
+        [0.0, -0.981, -0.196],
+        [-1.0, 0.0, 0.0],
+        [0.6, 0.64, 0.48],
+        [0.0, 0.0, -1.0],
+    ],
+)
 
 
 def _margin_reference(geometry, sigma):
@@ -63,6 +72,7 @@ def test_rim_circles_lie_on_the_region_boundary(spec):
 
 def _brute_force_distance(geometry, sigma, inflation):
     """Distance from sigma to {margin <= inflation} by dense grids in MRP space."""
+
     def violating(points):
         return _margin_reference(geometry, points).reshape(len(points), -1).min(1) <= inflation
 

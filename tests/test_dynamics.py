@@ -36,8 +36,9 @@ def test_constant_torque_matches_reference_integrator():
         sd, wd = state_derivative(J, ji, x[:3], x[3:], u)
         return np.r_[sd, wd]
 
-    ref = solve_ivp(rhs, (0.0, 10.0), np.r_[body.sigma_bn, body.omega_b], rtol=1e-11,
-                    atol=1e-12).y[:, -1]
+    ref = solve_ivp(rhs, (0.0, 10.0), np.r_[body.sigma_bn, body.omega_b], rtol=1e-11, atol=1e-12).y[
+        :, -1
+    ]
     for _ in range(100):
         body.step(u, 0.1)
     np.testing.assert_allclose(body.sigma_bn, ref[:3], atol=1e-8)

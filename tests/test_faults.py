@@ -32,8 +32,10 @@ WAIT_S = 120.0
 pytestmark = [
     pytest.mark.ros,
     pytest.mark.slow,
-    pytest.mark.skipif(not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-                       reason="colcon workspace not built (bash tools/bootstrap builds it)"),
+    pytest.mark.skipif(
+        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
+        reason="colcon workspace not built (bash tools/bootstrap builds it)",
+    ),
 ]
 
 
@@ -58,12 +60,17 @@ class Graph:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         (tmp_path / "logs").mkdir()
         self.bag = tmp_path / "bag"
-        self.graph = NodeGraph(shutil.which("ros2", path=env["PATH"]), env, tmp_path / "logs",
-                               ROOT / "scenarios")
+        self.graph = NodeGraph(
+            shutil.which("ros2", path=env["PATH"]), env, tmp_path / "logs", ROOT / "scenarios"
+        )
         self.params = ["--params-file", str(CASE1)]
         listeners = node_graph.state_listeners() + 1  # and the probe
-        self.sim_params = ["-p", f"lockstep.expected_subscribers:={listeners}",
-                           "-p", "lockstep.torque_timeout_s:=0.3"]
+        self.sim_params = [
+            "-p",
+            f"lockstep.expected_subscribers:={listeners}",
+            "-p",
+            "lockstep.torque_timeout_s:=0.3",
+        ]
         for p in sim_params:
             self.sim_params += ["-p", p]
         self.ctx = rclpy.Context()
@@ -85,10 +92,19 @@ class Graph:
 
     def start(self) -> None:
         g = self.graph
-        g.start(node_graph.RECORDER, [
-            "-p", f"output_dir:={self.bag}", "-p",
-            f"stop_on_planner_status:=[{PlannerStatus.ARRIVED},{PlannerStatus.STUCK}]",
-            "-p", "stop_delay_s:=5.0", "-p", f"scenario_file:={CASE1}"])
+        g.start(
+            node_graph.RECORDER,
+            [
+                "-p",
+                f"output_dir:={self.bag}",
+                "-p",
+                f"stop_on_planner_status:=[{PlannerStatus.ARRIVED},{PlannerStatus.STUCK}]",
+                "-p",
+                "stop_delay_s:=5.0",
+                "-p",
+                f"scenario_file:={CASE1}",
+            ],
+        )
         g.start(node_graph.PLANNER, self.params)
         g.start(node_graph.CONTROLLER, self.params)
         g.start(node_graph.SIMULATOR, self.params + self.sim_params)
@@ -130,8 +146,14 @@ def assert_safe_arrival(bag_run) -> None:
     sc = run.scenario
     min_margin, _ = dense_min_margin_deg(sc.keep_out(), run.t, run.sigma_bn, run.omega_b)
     assert min_margin > 0.0
-    reached, _, _ = arrival_time(run.t, run.sigma_bn, run.omega_b, sc.desired_mrp,
-                                 sc.arrival.attitude_tol_deg, sc.arrival.rate_tol_rad_s)
+    reached, _, _ = arrival_time(
+        run.t,
+        run.sigma_bn,
+        run.omega_b,
+        sc.desired_mrp,
+        sc.arrival.attitude_tol_deg,
+        sc.arrival.rate_tol_rad_s,
+    )
     assert reached
     assert bag_run.incomplete_steps <= 1
 
@@ -190,23 +212,36 @@ def test_planner_restarted_resumes_from_the_measured_attitude(graph):
     assert distance.min() < 1e-6  # the log rounds to 6 decimals
     assert np.linalg.norm(start - run.scenario.initial_mrp) > 0.05
     has_target = ~np.isnan(run.sigma_t[:, 0])
-    assert not has_target[resumed_at - 3:resumed_at].any()  # no target while it was down
+    assert not has_target[resumed_at - 3 : resumed_at].any()  # no target while it was down
     first = resumed_at + int(np.argmax(has_target[resumed_at:]))
     # Its first recorded targets continue from there at the planner's speed.
-    assert np.linalg.norm(run.sigma_t[first] - start) <= 0.05 * (run.t[first] - run.t[resumed_at]
-                                                               + 0.1)
+    assert np.linalg.norm(run.sigma_t[first] - start) <= 0.05 * (
+        run.t[first] - run.t[resumed_at] + 0.1
+    )
 
 
-def test_torque_link_dropping_10_percent_neither_deadlocks_nor_changes_the_run(tmp_path,
-                                                                                 ros_env):
+def test_torque_link_dropping_10_percent_neither_deadlocks_nor_changes_the_run(tmp_path, ros_env):
     out = tmp_path / "lossy"
     env = ros_env()
     proc = subprocess.run(
-        [str(Path(sys.prefix) / "bin" / "attitude-run"), str(CASE1), "--out", str(out),
-         "--quiet", "--param", "controller:fault.drop_torque_fraction:=0.1",
-         "--param", "controller:fault.seed:=7",
-         "--param", "simulator:lockstep.resend_period_s:=0.02"],
-        env=env, capture_output=True, text=True, timeout=300)
+        [
+            str(Path(sys.prefix) / "bin" / "attitude-run"),
+            str(CASE1),
+            "--out",
+            str(out),
+            "--quiet",
+            "--param",
+            "controller:fault.drop_torque_fraction:=0.1",
+            "--param",
+            "controller:fault.seed:=7",
+            "--param",
+            "simulator:lockstep.resend_period_s:=0.02",
+        ],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     bag_run = run_from_bag(str(out / "bag"))
     assert_safe_arrival(bag_run)
@@ -233,13 +268,25 @@ def _pid_of(executable: str, domain: int) -> int | None:
     return None
 
 
-def test_simulator_killed_still_leaves_a_readable_bag_and_summary(tmp_path, ros_domain, ros_env,
-                                                                 clock_probe):
+def test_simulator_killed_still_leaves_a_readable_bag_and_summary(
+    tmp_path, ros_domain, ros_env, clock_probe
+):
     out = tmp_path / "crashed"
     proc = subprocess.Popen(
-        [str(Path(sys.prefix) / "bin" / "attitude-run"), str(CASE1), "--out", str(out),
-         "--quiet", "--mode", "realtime"], env=ros_env(), stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, text=True)
+        [
+            str(Path(sys.prefix) / "bin" / "attitude-run"),
+            str(CASE1),
+            "--out",
+            str(out),
+            "--quiet",
+            "--mode",
+            "realtime",
+        ],
+        env=ros_env(),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         # some real-time steps: 20 steps of simulated time (dt 0.1 s), seen on /clock
         clock_probe.wait_clock(2.0, WAIT_S, alive=lambda: proc.poll() is None)
@@ -254,6 +301,7 @@ def test_simulator_killed_still_leaves_a_readable_bag_and_summary(tmp_path, ros_
     summary = json.loads((out / "summary.json").read_text())
     assert summary["failure"] == "simulator exited with code -9"
     from rosbags.highlevel import AnyReader
+
     with AnyReader([out / "bag"]) as reader:
         attitudes = sum(1 for c, _, _ in reader.messages() if c.topic == "/spacecraft/attitude")
     bag_run = run_from_bag(str(out / "bag"))

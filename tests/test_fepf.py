@@ -17,8 +17,9 @@ def test_rotation_matrix_is_eq9_rodrigues():
         axis = rng.normal(size=3)
         axis /= np.linalg.norm(axis)
         gamma = rng.uniform(-np.pi, np.pi)
-        np.testing.assert_allclose(rotation_matrix(gamma, axis),
-                                   Rotation.from_rotvec(gamma * axis).as_matrix(), atol=1e-12)
+        np.testing.assert_allclose(
+            rotation_matrix(gamma, axis), Rotation.from_rotvec(gamma * axis).as_matrix(), atol=1e-12
+        )
 
 
 def _run(planner, steps):
@@ -71,8 +72,9 @@ def _head_on_setup(gamma_deg, axis):
     # sigma = 0; start and goal are +-60 deg about b3, so the straight line is blocked head-on.
     geometry = KeepOutGeometry([[1.0, 0.0, 0.0]], [20.0], [[1.0, 0.0, 0.0]], inflation_deg=2.0)
     sc = load_scenario("scenarios/case1.yaml")
-    cfg = dataclasses.replace(sc.planner, gamma_deg=gamma_deg, direction_axis=axis,
-                              stuck_timeout_s=5.0)
+    cfg = dataclasses.replace(
+        sc.planner, gamma_deg=gamma_deg, direction_axis=axis, stuck_timeout_s=5.0
+    )
     t = np.tan(np.radians(60.0) / 4)
     return geometry, FepfPlanner(geometry, [0.0, 0.0, -t], [0.0, 0.0, t], 0.1, cfg)
 
@@ -84,7 +86,7 @@ def test_head_on_local_minimum_reports_stuck_instead_of_wandering():
     assert PlannerStatus.ARRIVED not in statuses
     first_stuck = statuses.index(PlannerStatus.STUCK)
     # Once stuck, the target holds still.
-    assert np.ptp(path[first_stuck + 1:], axis=0).max() == 0.0
+    assert np.ptp(path[first_stuck + 1 :], axis=0).max() == 0.0
     assert _segment_min_margin(geometry, path) >= 1.0
 
 
@@ -123,4 +125,4 @@ def test_restart_inside_safety_buffer_backs_out_and_arrives():
     assert statuses[-1] == PlannerStatus.ARRIVED
     # The margin never drops below where it started, and the buffer is regained.
     assert _segment_min_margin(exact, path) >= exact.min_margin_deg(s) - 1e-9
-    assert exact.min_margin_deg(path[len(path) // 2:]).min() >= 1.0
+    assert exact.min_margin_deg(path[len(path) // 2 :]).min() >= 1.0

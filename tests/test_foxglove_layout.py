@@ -25,14 +25,35 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYOUT_FILE = ROOT / "docs" / "foxglove_layout.json"
 
 CONTRACT = {t.name: t for t in topics.TOPICS}
-KNOWN_PANEL_TYPES = {"Plot", "StateTransitions", "RawMessages", "DiagnosticSummary",
-                     "DiagnosticStatusPanel", "3D", "Tab"}
+KNOWN_PANEL_TYPES = {
+    "Plot",
+    "StateTransitions",
+    "RawMessages",
+    "DiagnosticSummary",
+    "DiagnosticStatusPanel",
+    "3D",
+    "Tab",
+}
 TIMESTAMP_METHODS = {"receiveTime", "headerStamp"}
 
 # --- ROS message types ----------------------------------------------------------------
 
-NUMERIC = {"boolean", "octet", "char", "float", "double", "long double", "int8", "uint8",
-           "int16", "uint16", "int32", "uint32", "int64", "uint64"}
+NUMERIC = {
+    "boolean",
+    "octet",
+    "char",
+    "float",
+    "double",
+    "long double",
+    "int8",
+    "uint8",
+    "int16",
+    "uint16",
+    "int32",
+    "uint32",
+    "int64",
+    "uint64",
+}
 # Foxglove shows builtin_interfaces Time/Duration as {sec, nsec} (not ROS 2's nanosec):
 # treat them as leaves (the Plot panel plots a time as seconds).
 TIME_TYPES = {"builtin_interfaces/Time", "builtin_interfaces/Duration"}
@@ -113,7 +134,8 @@ _ELEMENT = re.compile(
          (?:\[(?P<slice>-?\d*(?::-?\d*)?)\])?
          (?:\{{(?P<fpath>{_ID}(?:\.{_ID})*)(?P<op>==|!=|>=|<=|>|<)
               (?P<fvalue>"[^"]*"|'[^']*'|-?\d+|true|false)\}})?""",
-    re.VERBOSE)
+    re.VERBOSE,
+)
 _REFERENCE_LINE = re.compile(r"-?\d+(\.\d*)?([eE][-+]?\d+)?$")
 
 
@@ -148,12 +170,17 @@ def resolve(root, elements: list[dict], path: str):
             assert is_sequence, f"{path!r}: slice on the non-array field {e['name']!r}"
             is_sequence = False
         if e["fpath"] is not None:
-            assert not is_sequence and not isinstance(current, str), \
+            assert not is_sequence and not isinstance(current, str), (
                 f"{path!r}: filter must follow a slice of an array of messages"
-            kind = resolve(current, [{"name": n, "slice": None, "fpath": None}
-                                     for n in e["fpath"].split(".")], path)
-            assert kind == _literal_kind(e["fvalue"]), \
+            )
+            kind = resolve(
+                current,
+                [{"name": n, "slice": None, "fpath": None} for n in e["fpath"].split(".")],
+                path,
+            )
+            assert kind == _literal_kind(e["fvalue"]), (
                 f"{path!r}: filter compares a {kind} field with {e['fvalue']}"
+            )
     assert not is_sequence, f"{path!r} ends on an array"
     return current if isinstance(current, str) else "message"
 
@@ -173,12 +200,12 @@ def _output_type_text(source: str) -> str | None:
         return None
     start = m.end()
     if source[start] != "{":
-        return source[start:source.index(";", start)]
+        return source[start : source.index(";", start)]
     depth = 0
     for i in range(start, len(source)):
         depth += {"{": 1, "}": -1}.get(source[i], 0)
         if depth == 0:
-            return source[start:i + 1]
+            return source[start : i + 1]
     return None
 
 
@@ -259,8 +286,9 @@ def mosaic_leaves(node, where="layout") -> list[str]:
     assert node["direction"] in ("row", "column"), f"{where}: direction {node['direction']!r}"
     if "splitPercentage" in node:
         assert 0 < node["splitPercentage"] < 100, f"{where}: splitPercentage"
-    return (mosaic_leaves(node["first"], where + ".first")
-            + mosaic_leaves(node["second"], where + ".second"))
+    return mosaic_leaves(node["first"], where + ".first") + mosaic_leaves(
+        node["second"], where + ".second"
+    )
 
 
 def all_panel_ids(layout) -> list[str]:
@@ -277,8 +305,11 @@ def message_paths(panel_id: str, config: dict) -> list[tuple[str, str | None]]:
     """(message path, timestampMethod) of a panel; reference lines of a Plot excluded."""
     kind = panel_type(panel_id)
     if kind in ("Plot", "StateTransitions"):
-        return [(p["value"], p["timestampMethod"]) for p in config["paths"]
-                if not _REFERENCE_LINE.match(p["value"])]
+        return [
+            (p["value"], p["timestampMethod"])
+            for p in config["paths"]
+            if not _REFERENCE_LINE.match(p["value"])
+        ]
     if kind == "RawMessages":
         return [(config["topicPath"], None)]
     return []
@@ -295,8 +326,9 @@ def root_type(topic: str, scripts: dict[str, Script]):
     if topic in CONTRACT:
         return RosType(CONTRACT[topic].type_name)
     script = scripts[topic]
-    assert script.output_type is not None, \
+    assert script.output_type is not None, (
         f"{topic}: output of a script with a schema type, not plotted field by field here"
+    )
     return script.output_type
 
 
@@ -304,8 +336,7 @@ def root_type(topic: str, scripts: dict[str, Script]):
 
 
 def test_top_level_keys(layout):
-    assert set(layout) >= {"configById", "layout", "globalVariables", "userNodes",
-                           "playbackConfig"}
+    assert set(layout) >= {"configById", "layout", "globalVariables", "userNodes", "playbackConfig"}
     assert layout["playbackConfig"]["speed"] > 0
     assert isinstance(layout["globalVariables"], dict)
 
@@ -413,12 +444,14 @@ def test_every_contract_topic_but_clock_is_shown(layout):
 
 def test_requested_series_are_present(layout):
     values = {p["value"] for c in layout["configById"].values() for p in c.get("paths", [])}
-    for topic, fields in ((topics.ATTITUDE, "quaternion.x quaternion.y quaternion.z quaternion.w"),
-                          (topics.ANGULAR_VELOCITY, "vector.x vector.y vector.z"),
-                          (topics.TORQUE, "wrench.torque.x wrench.torque.y wrench.torque.z"),
-                          (topics.TARGET_MRP, "vector.x vector.y vector.z"),
-                          (topics.KEEP_OUT_MARGIN, "data"),
-                          (topics.PLANNER_STATUS, "data")):
+    for topic, fields in (
+        (topics.ATTITUDE, "quaternion.x quaternion.y quaternion.z quaternion.w"),
+        (topics.ANGULAR_VELOCITY, "vector.x vector.y vector.z"),
+        (topics.TORQUE, "wrench.torque.x wrench.torque.y wrench.torque.z"),
+        (topics.TARGET_MRP, "vector.x vector.y vector.z"),
+        (topics.KEEP_OUT_MARGIN, "data"),
+        (topics.PLANNER_STATUS, "data"),
+    ):
         for f in fields.split():
             assert f"{topic}.{f}" in values, f"{topic}.{f}"
 
@@ -466,16 +499,23 @@ def test_status_states_are_the_planner_statuses(layout):
 
 
 def test_3d_panel_frames_come_from_a_script(layout, scripts):
-    frame_scripts = [s for s in scripts.values()
-                     if s.output_schema in ("foxglove.FrameTransform", "foxglove.FrameTransforms")]
+    frame_scripts = [
+        s
+        for s in scripts.values()
+        if s.output_schema in ("foxglove.FrameTransform", "foxglove.FrameTransforms")
+    ]
     for panel_id, config in layout["configById"].items():
         if panel_type(panel_id) != "3D":
             continue
         assert frame_scripts, f"{panel_id}: nothing publishes transforms"
-        parents = {p for s in frame_scripts
-                   for p in re.findall(r'parent_frame_id:\s*"([^"]+)"', s.source)}
-        children = {c for s in frame_scripts
-                    for c in re.findall(r'(?:child_frame_id:|child\s*=)\s*"([^"]+)"', s.source)}
+        parents = {
+            p for s in frame_scripts for p in re.findall(r'parent_frame_id:\s*"([^"]+)"', s.source)
+        }
+        children = {
+            c
+            for s in frame_scripts
+            for c in re.findall(r'(?:child_frame_id:|child\s*=)\s*"([^"]+)"', s.source)
+        }
         assert parents == {topics.INERTIAL_FRAME}
         assert children == {topics.BODY_FRAME, topics.TARGET_FRAME}
         assert config["followTf"] == topics.INERTIAL_FRAME

@@ -102,7 +102,7 @@ def test_usage_in_docstring():
 def test_launch_arguments(description):
     declared = {a.args[0]: a.kwargs for a in _entities(description, 'DeclareLaunchArgument')}
     assert set(declared) == {'scenario', 'time_mode', 'bag_dir'}
-    assert 'default_value' not in declared['scenario']   # required
+    assert 'default_value' not in declared['scenario']  # required
     assert declared['time_mode']['default_value'] == 'lockstep'
     assert declared['time_mode']['choices'] == list(TIME_MODES)
     assert declared['bag_dir']['default_value'] == 'bag'
@@ -111,8 +111,10 @@ def test_launch_arguments(description):
 
 
 def test_starts_the_node_graph_in_order_on_screen(description):
-    started = [(n.kwargs['package'], n.kwargs['executable'], n.kwargs['name'])
-               for n in _entities(description, 'Node')]
+    started = [
+        (n.kwargs['package'], n.kwargs['executable'], n.kwargs['name'])
+        for n in _entities(description, 'Node')
+    ]
     assert started == [(s.package, s.executable, s.node_name) for s in node_graph.NODES]
     for n in _entities(description, 'Node'):
         assert n.kwargs['output'] == 'screen'
@@ -133,7 +135,8 @@ def test_node_executable_is_a_console_script(spec):
     assert spec.executable in scripts, (
         f"the node graph starts {spec.package}/{spec.executable}, but src/{spec.package}/"
         f"setup.py declares no console script '{spec.executable}' (console_scripts: "
-        f"{sorted(scripts)})")
+        f"{sorted(scripts)})"
+    )
 
 
 def _parameters(node):
@@ -165,7 +168,7 @@ def test_node_parameters(nodes):
     own = {spec.executable: {p.key for p in spec.parameters.own} for spec in node_graph.NODES}
     for exe, node in nodes.items():
         _, values = _parameters(node)
-        assert set(values) <= own[exe], exe   # only parameters the node declares
+        assert set(values) <= own[exe], exe  # only parameters the node declares
 
 
 def test_shutdown_when_the_simulator_exits(description, nodes):
@@ -203,11 +206,16 @@ def _eval(node, names, cwd):
 
 def test_launch_file_installed_by_setup_py():
     tree = ast.parse((BRINGUP / 'setup.py').read_text())
-    names = {t.id: n.value.value for n in tree.body
-             if isinstance(n, ast.Assign) and isinstance(n.value, ast.Constant)
-             for t in n.targets if isinstance(t, ast.Name)}
-    data_files = [kw.value for kw in ast.walk(tree)
-                  if isinstance(kw, ast.keyword) and kw.arg == 'data_files']
+    names = {
+        t.id: n.value.value
+        for n in tree.body
+        if isinstance(n, ast.Assign) and isinstance(n.value, ast.Constant)
+        for t in n.targets
+        if isinstance(t, ast.Name)
+    }
+    data_files = [
+        kw.value for kw in ast.walk(tree) if isinstance(kw, ast.keyword) and kw.arg == 'data_files'
+    ]
     assert len(data_files) == 1
     installed = {}
     for dest, files in _eval(data_files[0], names, BRINGUP):
@@ -221,4 +229,5 @@ def test_launch_file_in_built_workspace():
         pytest.skip('ros2_ws not built (bash tools/bootstrap builds it)')
     installed = install / 'attitude_bringup' / 'share' / 'attitude_bringup' / 'launch'
     assert (installed / 'scenario.launch.py').resolve() == LAUNCH.resolve(), (
-        'ros2_ws/install is out of date: run bash tools/bootstrap')
+        'ros2_ws/install is out of date: run bash tools/bootstrap'
+    )

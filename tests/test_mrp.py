@@ -66,12 +66,12 @@ def test_mrp_rate_matches_dcm_kinematics(sigma, omega):
 def test_compose_and_relative(sigma_a, sigma_b):
     composed = mrp.compose(sigma_a, sigma_b)
     np.testing.assert_allclose(
-        mrp.dcm_from_mrp(composed), mrp.dcm_from_mrp(sigma_a) @ mrp.dcm_from_mrp(sigma_b),
-        atol=1e-9)
+        mrp.dcm_from_mrp(composed), mrp.dcm_from_mrp(sigma_a) @ mrp.dcm_from_mrp(sigma_b), atol=1e-9
+    )
     rel = mrp.relative(sigma_a, sigma_b)  # C(rel) = C(a) C(b)^T
     np.testing.assert_allclose(
-        mrp.dcm_from_mrp(rel), mrp.dcm_from_mrp(sigma_a) @ mrp.dcm_from_mrp(sigma_b).T,
-        atol=1e-9)
+        mrp.dcm_from_mrp(rel), mrp.dcm_from_mrp(sigma_a) @ mrp.dcm_from_mrp(sigma_b).T, atol=1e-9
+    )
     assert np.linalg.norm(rel) <= 1.0 + 1e-12
     expected = (Rotation.from_mrp(sigma_b).inv() * Rotation.from_mrp(sigma_a)).magnitude()
     assert abs(mrp.principal_angle(rel) - expected) < 1e-9
@@ -83,8 +83,9 @@ def test_quaternion_is_ros_orientation(sigma):
     expected = Rotation.from_mrp(sigma).as_quat()  # (x, y, z, w), body in inertial
     assert abs(abs(q @ expected) - 1.0) < 1e-12
     assert q[3] >= 0.0
-    np.testing.assert_allclose(mrp.dcm_from_mrp(mrp.mrp_from_quat(q)), mrp.dcm_from_mrp(sigma),
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        mrp.dcm_from_mrp(mrp.mrp_from_quat(q)), mrp.dcm_from_mrp(sigma), atol=1e-9
+    )
 
 
 def test_principal_angle_definition():
@@ -97,5 +98,6 @@ def test_principal_angle_definition():
 @settings(max_examples=50)
 @given(arrays(np.float64, (4, 3), elements=finite))
 def test_vectorised_forms_match_single(stack):
-    np.testing.assert_allclose(mrp.dcm_from_mrp(stack),
-                               np.array([mrp.dcm_from_mrp_single(s) for s in stack]), atol=1e-12)
+    np.testing.assert_allclose(
+        mrp.dcm_from_mrp(stack), np.array([mrp.dcm_from_mrp_single(s) for s in stack]), atol=1e-12
+    )

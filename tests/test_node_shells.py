@@ -59,21 +59,27 @@ ROOT = Path(__file__).resolve().parents[1]
 pytestmark = pytest.mark.ros
 
 CASE1 = ROOT / "scenarios" / "case1.yaml"
-WAIT_S = 10.0        # deadline of every wait for a condition
-QUIET_S = 0.3        # extra spinning before a (supplementary) "nothing arrived" check
+WAIT_S = 10.0  # deadline of every wait for a condition
+QUIET_S = 0.3  # extra spinning before a (supplementary) "nothing arrived" check
 TOL = 1e-12
-NODE_CLASSES = {"planner": FepfPlannerNode, "controller": PdControllerNode,
-                "simulator": RigidBodySimNode}
+NODE_CLASSES = {
+    "planner": FepfPlannerNode,
+    "controller": PdControllerNode,
+    "simulator": RigidBodySimNode,
+}
 GRAPH = {role: node_graph.node(role) for role in NODE_CLASSES}
-ROS_TYPES = {"double": ParameterType.PARAMETER_DOUBLE,
-             "double_array": ParameterType.PARAMETER_DOUBLE_ARRAY,
-             "integer": ParameterType.PARAMETER_INTEGER,
-             "string": ParameterType.PARAMETER_STRING,
-             "string_array": ParameterType.PARAMETER_STRING_ARRAY,
-             "bool": ParameterType.PARAMETER_BOOL}
+ROS_TYPES = {
+    "double": ParameterType.PARAMETER_DOUBLE,
+    "double_array": ParameterType.PARAMETER_DOUBLE_ARRAY,
+    "integer": ParameterType.PARAMETER_INTEGER,
+    "string": ParameterType.PARAMETER_STRING,
+    "string_array": ParameterType.PARAMETER_STRING_ARRAY,
+    "bool": ParameterType.PARAMETER_BOOL,
+}
 
 
 # --- the ROS session fixture and its helpers -------------------------------------------
+
 
 class RosSession:
     """One rclpy session: init with the test's arguments, an executor, a probe node."""
@@ -132,21 +138,28 @@ class RosSession:
         ``history``: transient-local, so samples published before matching arrive too."""
         topic = c.topic(name)
         received: list = []
-        self.probe.create_subscription(c.message_class(topic.type_name), name, received.append,
-                                       c.qos(topic, subscriber=not history))
+        self.probe.create_subscription(
+            c.message_class(topic.type_name),
+            name,
+            received.append,
+            c.qos(topic, subscriber=not history),
+        )
         return received
 
     def wait_connected(self, node: Node, publishers) -> None:
         """Wait until every probe publisher in ``publishers`` is matched by ``node``
         (both ends) and every probe subscription sees a publisher."""
+
         def node_subscription(name):
             return next(s for s in node.subscriptions if s.topic_name == name)
 
         def ready():
-            return (all(p.get_subscription_count() >= 1
-                        and node_subscription(p.topic_name).get_publisher_count() >= 1
-                        for p in publishers)
-                    and all(s.get_publisher_count() >= 1 for s in self.probe.subscriptions))
+            return all(
+                p.get_subscription_count() >= 1
+                and node_subscription(p.topic_name).get_publisher_count() >= 1
+                for p in publishers
+            ) and all(s.get_publisher_count() >= 1 for s in self.probe.subscriptions)
+
         self.spin_until(ready, "the probe and the node to be connected")
 
 
@@ -213,11 +226,13 @@ def stamps(messages) -> list[int]:
 
 
 def assert_close(actual, expected, tol: float = TOL) -> None:
-    np.testing.assert_allclose(np.asarray(actual, dtype=float), np.asarray(expected, dtype=float),
-                               rtol=0.0, atol=tol)
+    np.testing.assert_allclose(
+        np.asarray(actual, dtype=float), np.asarray(expected, dtype=float), rtol=0.0, atol=tol
+    )
 
 
 # --- 1. parameters ------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("which", sorted(NODE_CLASSES))
 def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
@@ -228,7 +243,7 @@ def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
     rows = scenario_keys(scenario.instrument_names, scenario.bright_object_names)
     assert len(rows) == len({r.key for r in rows}) > 20
     declared = [r for r in rows if table.reads_scenario_key(r.key)]
-    assert declared and len(declared) < len(rows)   # each node declares only what it reads
+    assert declared and len(declared) < len(rows)  # each node declares only what it reads
     for row in rows:
         assert node.has_parameter(row.key) == table.reads_scenario_key(row.key), row.key
     for row in declared + list(table.own):
@@ -243,7 +258,7 @@ def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
             assert (r.from_value, r.to_value) == closed, row.key
         else:
             assert list(d.floating_point_range) == [], row.key
-        if closed is not None and row.ros_type == "integer":   # e.g. planner.obstacle_samples
+        if closed is not None and row.ros_type == "integer":  # e.g. planner.obstacle_samples
             assert len(d.integer_range) == 1, row.key
             r = d.integer_range[0]
             assert (r.from_value, r.to_value, r.step) == (closed[0], closed[1], 1), row.key
@@ -251,7 +266,7 @@ def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
             assert list(d.integer_range) == [], row.key
     if which == "planner":
         assert node.describe_parameter("planner.obstacle_samples").integer_range
-    else:   # the controller and the simulator do not carry the planner's keys
+    else:  # the controller and the simulator do not carry the planner's keys
         assert not node.has_parameter("planner.gamma_deg")
     # Read-only for real: a set request is refused and the value is unchanged.
     key, value = declared[-1].key, node.get_parameter(declared[-1].key).value
@@ -274,11 +289,13 @@ def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
 def test_simulator_own_parameters_have_descriptors(ros):
     ros.init(CASE1)
     sim = ros.add(RigidBodySimNode())
-    own = {"time_mode": ParameterType.PARAMETER_STRING,
-           "lockstep.expected_subscribers": ParameterType.PARAMETER_INTEGER,
-           "lockstep.resend_period_s": ParameterType.PARAMETER_DOUBLE,
-           "lockstep.torque_timeout_s": ParameterType.PARAMETER_DOUBLE,
-           "startup_timeout_s": ParameterType.PARAMETER_DOUBLE}
+    own = {
+        "time_mode": ParameterType.PARAMETER_STRING,
+        "lockstep.expected_subscribers": ParameterType.PARAMETER_INTEGER,
+        "lockstep.resend_period_s": ParameterType.PARAMETER_DOUBLE,
+        "lockstep.torque_timeout_s": ParameterType.PARAMETER_DOUBLE,
+        "startup_timeout_s": ParameterType.PARAMETER_DOUBLE,
+    }
     for name, ros_type in own.items():
         assert sim.has_parameter(name), name
         d = sim.describe_parameter(name)
@@ -299,24 +316,28 @@ def test_simulator_own_parameters_have_descriptors(ros):
 
 # --- 2. bad parameter values --------------------------------------------------------------
 
+
 def _edit_case1(text: str, case: str) -> str:
     if case == "half_angle_out_of_range":
         new = text.replace("half_angle_deg: 20.0", "half_angle_deg: 95.0")
     elif case == "dt_integer":
         new = text.replace("dt_s: 0.1 ", "dt_s: 1 ")
     elif case == "desired_missing":
-        new = "\n".join(line for line in text.splitlines()
-                        if not line.lstrip().startswith("desired_mrp:"))
+        new = "\n".join(
+            line for line in text.splitlines() if not line.lstrip().startswith("desired_mrp:")
+        )
     elif case == "kp_negative":
         new = text.replace("kp_over_j: 5.5", "kp_over_j: -5.5")
     assert new != text, case
     return new
 
 
-BAD_CASES = {"half_angle_out_of_range": "instruments.star_tracker.half_angle_deg",
-             "dt_integer": "dt_s",
-             "desired_missing": "desired_mrp",
-             "kp_negative": "controller.kp_over_j"}
+BAD_CASES = {
+    "half_angle_out_of_range": "instruments.star_tracker.half_angle_deg",
+    "dt_integer": "dt_s",
+    "desired_missing": "desired_mrp",
+    "kp_negative": "controller.kp_over_j",
+}
 
 
 @pytest.mark.parametrize("case", sorted(BAD_CASES))
@@ -342,11 +363,14 @@ def test_simulator_refuses_an_unknown_time_mode(ros):
     assert "must be one of ['lockstep', 'realtime']" in str(info.value)
 
 
-@pytest.mark.parametrize("key, value, reason", [
-    ("lockstep.expected_subscribers", -5, "out of range"),        # the row's integer range
-    ("lockstep.max_held_steps", -1, "out of range"),
-    ("time_mode", 1, "InvalidParameterTypeException"),           # the row's type
-])
+@pytest.mark.parametrize(
+    "key, value, reason",
+    [
+        ("lockstep.expected_subscribers", -5, "out of range"),  # the row's integer range
+        ("lockstep.max_held_steps", -1, "out of range"),
+        ("time_mode", 1, "InvalidParameterTypeException"),  # the row's type
+    ],
+)
 def test_node_own_parameters_are_checked_by_their_rows(ros, key, value, reason):
     """Overrides given to the constructor (``**kwargs`` reach ``Node.__init__``) are
     checked like the command line's: a NodeParameterError naming the key."""
@@ -361,8 +385,9 @@ def test_nodes_accept_an_injected_context(ros, scenario):
     """A node can live in a private rclpy context (``context=`` reaches ``Node.__init__``)."""
     ros.init(CASE1)
     ctx = rclpy.Context()
-    rclpy.init(context=ctx, args=["--ros-args", "--params-file", str(CASE1)],
-               domain_id=ros.domain_id)
+    rclpy.init(
+        context=ctx, args=["--ros-args", "--params-file", str(CASE1)], domain_id=ros.domain_id
+    )
     try:
         for node_class in NODE_CLASSES.values():
             node = node_class(context=ctx)
@@ -375,14 +400,14 @@ def test_nodes_accept_an_injected_context(ros, scenario):
         ctx.try_shutdown()
 
 
-def test_relative_fis_path_resolves_against_the_working_directory(ros, tmp_path,
-                                                                   monkeypatch):
+def test_relative_fis_path_resolves_against_the_working_directory(ros, tmp_path, monkeypatch):
     fis = ROOT / "src" / "attitude_core" / "attitude_core" / "data" / "fis_attractive.yaml"
     (tmp_path / "my_fis.yaml").write_text(fis.read_text())
     path = tmp_path / "relative_fis.yaml"
     planner_block = "    planner:\n      fis_attractive: ./my_fis.yaml\n"
-    path.write_text(CASE1.read_text().replace("    controller:\n",
-                                              planner_block + "    controller:\n"))
+    path.write_text(
+        CASE1.read_text().replace("    controller:\n", planner_block + "    controller:\n")
+    )
     assert load_scenario(path).planner.fis_attractive == str(tmp_path / "my_fis.yaml")
     monkeypatch.chdir(tmp_path)  # attitude-run starts the nodes in the scenario's directory
     ros.init(path)
@@ -403,7 +428,9 @@ def test_unknown_key_is_refused_by_the_nodes_as_by_the_loader(ros, tmp_path):
         assert info.value.key == "controller.kp_over_jj"
         assert "did you mean 'controller.kp_over_j'" in str(info.value)
 
+
 # --- 3. planner shell ---------------------------------------------------------------------
+
 
 class PlannerProbe:
     """The planner node, an attitude publisher and subscriptions to all its outputs."""
@@ -506,6 +533,7 @@ def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
 
 # --- 4. controller shell ------------------------------------------------------------------
 
+
 class ControllerProbe:
     """The controller node, a publisher per input and a torque subscription."""
 
@@ -553,11 +581,17 @@ class ControllerProbe:
 
 def random_inputs(rng) -> list:
     """(quaternion of the body, omega_B, sigma_t, omega_t) for one stamp."""
+
     def mrp():
         v = rng.normal(size=3)
         return v / np.linalg.norm(v) * rng.uniform(0.05, 0.8)
-    return [quat_from_mrp(mrp()), rng.normal(scale=0.1, size=3), mrp(),
-            rng.normal(scale=0.05, size=3)]
+
+    return [
+        quat_from_mrp(mrp()),
+        rng.normal(scale=0.1, size=3),
+        mrp(),
+        rng.normal(scale=0.05, size=3),
+    ]
 
 
 def check_torque(msg: WrenchStamped, ns: int, expected) -> None:
@@ -572,7 +606,7 @@ def test_controller_torque_per_stamp_in_any_input_order(ros, scenario):
     p = ControllerProbe(ros, scenario)
     rng = np.random.default_rng(20240295)
     orders = list(itertools.permutations(range(4)))[::5]  # 5 different orders
-    assert len({o[-1] for o in orders}) == 4              # each input comes last once
+    assert len({o[-1] for o in orders}) == 4  # each input comes last once
     for k, order in enumerate(orders, start=1):
         ns = k * DT_NS
         inputs = random_inputs(rng)
@@ -603,8 +637,12 @@ def test_controller_rejects_non_finite_inputs(ros, scenario):
     ros.init(CASE1)
     p = ControllerProbe(ros, scenario)
     rng = np.random.default_rng(7)
-    bad_values = {0: [(math.nan, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.6, 0.6)],
-                  1: [(0.0, math.nan, 0.0)], 2: [(0.1, 0.0, math.inf)], 3: [(-math.inf, 0.0, 0.0)]}
+    bad_values = {
+        0: [(math.nan, 0.0, 0.0, 1.0), (0.0, 0.0, 0.0, 0.0), (0.0, 0.0, 0.6, 0.6)],
+        1: [(0.0, math.nan, 0.0)],
+        2: [(0.1, 0.0, math.inf)],
+        3: [(-math.inf, 0.0, 0.0)],
+    }
     n_bad = 0
     for k, slot in enumerate(sorted(bad_values), start=1):
         ns = k * DT_NS
@@ -644,6 +682,7 @@ def test_controller_rejects_inputs_stamped_before_its_last_torque(ros, scenario)
 
 # --- 5. simulator shell (lockstep) ----------------------------------------------------------
 
+
 class SimProbe:
     """The simulator in lockstep with the smallest graph its start-up wait accepts.
 
@@ -666,14 +705,22 @@ class SimProbe:
         self.node = ros.add(RigidBodySimNode())
         assert self.node.ready == node_graph.readiness(1)
         assert self.node.stepper.cfg.torque_timeout_s == 600.0
-        self.reference = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp,
-                                   scenario.initial_rate_rad_s)
+        self.reference = RigidBody(
+            scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s
+        )
         self.dt_s = scenario.dt_s
 
     def wait_state(self, ns: int) -> None:
         def arrived():
-            return all(ns in s for s in (stamps(self.attitude), stamps(self.rate),
-                                         [stamp_ns(m.clock) for m in self.clock]))
+            return all(
+                ns in s
+                for s in (
+                    stamps(self.attitude),
+                    stamps(self.rate),
+                    [stamp_ns(m.clock) for m in self.clock],
+                )
+            )
+
         self.ros.spin_until(arrived, f"the state stamped {ns} ns")
 
     def state(self, ns: int):
@@ -715,8 +762,12 @@ def test_simulator_lockstep_advances_only_on_the_matching_torque(ros, scenario):
     assert_close(xyz(s.state(0)[1].vector), scenario.initial_rate_rad_s)
     assert s.node.stepper.k == 0
 
-    torques = [np.array([0.3, -0.2, 0.1]), np.array([-0.5, 0.05, 0.4]),
-               np.array([0.0, 0.0, 0.0]), np.array([1.0, 2.0, -1.5])]
+    torques = [
+        np.array([0.3, -0.2, 0.1]),
+        np.array([-0.5, 0.05, 0.4]),
+        np.array([0.0, 0.0, 0.0]),
+        np.array([1.0, 2.0, -1.5]),
+    ]
     for k, u in enumerate(torques):
         ns, next_ns = k * DT_NS, (k + 1) * DT_NS
         # Torques that must not advance it: future and past stamps, then a NaN with the
@@ -750,9 +801,10 @@ def test_simulator_lockstep_resends_the_state_while_the_torque_is_missing(ros, s
     s = SimProbe(ros, scenario)
 
     def resent(ns: int, times: int = 3):
-        s.ros.spin_until(lambda: stamps(s.attitude).count(ns) >= times
-                         and stamps(s.rate).count(ns) >= times,
-                         f"{times} sends of the state stamped {ns} ns")
+        s.ros.spin_until(
+            lambda: stamps(s.attitude).count(ns) >= times and stamps(s.rate).count(ns) >= times,
+            f"{times} sends of the state stamped {ns} ns",
+        )
         same = [m for m in s.attitude if stamp_ns(m.header.stamp) == ns]
         assert all(m == same[0] for m in same)
         same = [m for m in s.rate if stamp_ns(m.header.stamp) == ns]
@@ -783,7 +835,7 @@ def test_simulator_realtime_refuses_torques_from_the_past_and_non_finite(ros, sc
     s.torque(now, u)
     ros.spin_until(lambda: s.node.stepper.torque_stamp == now, "the torque to be taken")
     np.testing.assert_array_equal(s.node.stepper.torque, u)
-    s.torque(now - DT_NS, -u)                       # stamped before the applied one
-    s.torque(now + DT_NS, (math.nan, 0.0, 0.0))     # not finite
+    s.torque(now - DT_NS, -u)  # stamped before the applied one
+    s.torque(now + DT_NS, (math.nan, 0.0, 0.0))  # not finite
     ros.spin_until(lambda: s.node.rejected == 2, "two rejections")
     np.testing.assert_array_equal(s.node.stepper.torque, u)  # still the good one

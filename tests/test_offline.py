@@ -20,6 +20,7 @@ SCENARIOS = sorted(os.path.basename(p)[:-5] for p in glob.glob(f"{ROOT}/scenario
 @pytest.fixture(scope="module")
 def summaries():
     from attitude_core.scenario import load_scenario
+
     out = {}
     for name in SCENARIOS:
         run = run_closed_loop(load_scenario(f"{ROOT}/scenarios/{name}.yaml"))
@@ -54,6 +55,7 @@ def test_improved_variant_cuts_torque_peak_and_terminal_rate(summaries, case):
 
 def test_closed_loop_is_deterministic_and_physical(summaries):
     from attitude_core.scenario import load_scenario
+
     run_a = summaries["case2"][0]
     run_b = run_closed_loop(load_scenario(f"{ROOT}/scenarios/case2.yaml"))
     np.testing.assert_array_equal(run_a.sigma_bn, run_b.sigma_bn)
@@ -70,13 +72,32 @@ def test_closed_loop_is_deterministic_and_physical(summaries):
 
 def test_cli_writes_summary_and_timeseries(tmp_path):
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "attitude_tools.offline",
-                           f"{ROOT}/scenarios/case2.yaml", "--out", str(out), "--quiet"],
-                          capture_output=True, text=True, timeout=300)
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "attitude_tools.offline",
+            f"{ROOT}/scenarios/case2.yaml",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
-    for key in ("scenario", "reached", "t_reach_s", "min_margin_deg", "path_length_mrp",
-                "final_rate_rad_s", "peak_torque_nm", "planner_step_us_median"):
+    for key in (
+        "scenario",
+        "reached",
+        "t_reach_s",
+        "min_margin_deg",
+        "path_length_mrp",
+        "final_rate_rad_s",
+        "peak_torque_nm",
+        "planner_step_us_median",
+    ):
         assert key in summary
     table = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
     assert len(table) == 1501  # 150 s at 0.1 s, both ends
@@ -88,8 +109,12 @@ def test_cli_bad_scenario_exits_nonzero_and_writes_nothing(tmp_path):
     bad = tmp_path / "bad.yaml"
     bad.write_text("/**:\n  ros__parameters:\n    scenario_name: x\n    dt_s: -0.1\n")
     out = tmp_path / "run"
-    proc = subprocess.run([sys.executable, "-m", "attitude_tools.offline", str(bad),
-                           "--out", str(out)], capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "attitude_tools.offline", str(bad), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 2
     assert "bad.yaml" in proc.stderr
     assert not out.exists()

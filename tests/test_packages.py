@@ -34,8 +34,11 @@ def _setup_kwargs(pkg):
             for target in node.targets:
                 if isinstance(target, ast.Name):
                     names[target.id] = node.value.value
-    calls = [n for n in ast.walk(tree)
-             if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == 'setup']
+    calls = [
+        n
+        for n in ast.walk(tree)
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == 'setup'
+    ]
     assert len(calls) == 1, 'setup.py must call setup() exactly once'
     kwargs = {}
     for kw in calls[0].keywords:
@@ -104,7 +107,8 @@ def test_colcon_identifies_ament_python(pkg):
     """colcon silently falls back to type 'python' if package.xml is rejected."""
     identification = pytest.importorskip('colcon_core.package_identification')
     desc = identification.identify(
-        identification.get_package_identification_extensions(), SRC / pkg)
+        identification.get_package_identification_extensions(), SRC / pkg
+    )
     assert desc is not None and desc is not False
     assert desc.type == 'ros.ament_python'
     assert desc.name == pkg
@@ -124,11 +128,14 @@ def test_exec_depends_are_known(pkg):
     if not index.is_dir():
         pytest.skip('.venv not bootstrapped')
     package, _ = _parse(pkg)
-    unknown = [d.name for d in package.exec_depends
-               if not d.name.startswith('python3-')
-               and d.name not in FULL_INSTALL_ONLY
-               and not (SRC / d.name / 'package.xml').is_file()
-               and not (index / d.name).is_file()]
+    unknown = [
+        d.name
+        for d in package.exec_depends
+        if not d.name.startswith('python3-')
+        and d.name not in FULL_INSTALL_ONLY
+        and not (SRC / d.name / 'package.xml').is_file()
+        and not (index / d.name).is_file()
+    ]
     assert unknown == []
 
 
@@ -176,27 +183,34 @@ EXEC_DEPEND_EXCEPTIONS: dict[str, dict[str, str]] = {}
 
 def _contract_message_packages():
     from attitude_core.topics import TOPICS
+
     return {t.type_name.split('/')[0] for t in TOPICS}
 
 
 # Packages whose code imports modules by name at run time: package -> (what, modules).
 DYNAMIC_IMPORTS = {
-    'attitude_ros': ('contract.message_class() imports the message package of every topic of '
-                     'the contract (attitude_core.topics.TOPICS), e.g. for the recorder',
-                     _contract_message_packages),
+    'attitude_ros': (
+        'contract.message_class() imports the message package of every topic of '
+        'the contract (attitude_core.topics.TOPICS), e.g. for the recorder',
+        _contract_message_packages,
+    ),
 }
 
 
 def _node_graph_packages():
     from attitude_core import node_graph
+
     return {spec.package for spec in node_graph.NODES}
 
 
 # Launch files that start nodes of packages given by an expression, not a literal
 # (``Node(package=spec.package)``): package -> (what, packages).
 LAUNCHED_PACKAGES = {
-    'attitude_bringup': ('the launch file starts one Node per entry of the node table '
-                         'attitude_core.node_graph.NODES', _node_graph_packages),
+    'attitude_bringup': (
+        'the launch file starts one Node per entry of the node table '
+        'attitude_core.node_graph.NODES',
+        _node_graph_packages,
+    ),
 }
 
 
@@ -206,8 +220,11 @@ def _ament_indexes():
 
 
 def _is_ros_package(name, indexes):
-    return (name in FULL_INSTALL_ONLY or (SRC / name / 'package.xml').is_file()
-            or any((index / name).is_file() for index in indexes))
+    return (
+        name in FULL_INSTALL_ONLY
+        or (SRC / name / 'package.xml').is_file()
+        or any((index / name).is_file() for index in indexes)
+    )
 
 
 def _module_name(path, root):
@@ -225,8 +242,9 @@ def _imports(path, root=None):
     imports are resolved against the file's package (``root`` is its import root)."""
     tree = ast.parse(path.read_text(encoding='utf-8'), filename=str(path))
     module = _module_name(path, root)
-    package = (module if path.name == '__init__.py' else module.rpartition('.')[0]) if module \
-        else None
+    package = (
+        (module if path.name == '__init__.py' else module.rpartition('.')[0]) if module else None
+    )
     names, dynamic = set(), False
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
@@ -234,7 +252,7 @@ def _imports(path, root=None):
         elif isinstance(node, ast.ImportFrom):
             if node.level:
                 assert package is not None, f'{path}: relative import outside a package'
-                base = '.'.join(package.split('.')[:len(package.split('.')) - node.level + 1])
+                base = '.'.join(package.split('.')[: len(package.split('.')) - node.level + 1])
                 base = f'{base}.{node.module}' if node.module else base
             else:
                 base = node.module
@@ -282,8 +300,13 @@ def _launch_started_packages(path):
     """(packages of the nodes a launch file starts as ``Node(package='...')`` and the like,
     whether some ``package=`` is an expression instead of a literal)."""
     tree = ast.parse(path.read_text(encoding='utf-8'), filename=str(path))
-    values = [kw.value for node in ast.walk(tree) if isinstance(node, ast.Call)
-              for kw in node.keywords if kw.arg == 'package']
+    values = [
+        kw.value
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        for kw in node.keywords
+        if kw.arg == 'package'
+    ]
     literal = [v for v in values if isinstance(v, ast.Constant) and isinstance(v.value, str)]
     return {v.value for v in literal}, len(literal) < len(values)
 
@@ -299,7 +322,8 @@ def _dependencies(pkg, indexes):
         names, dynamic = _imports(path, SRC / pkg if path in sources else None)
         if dynamic:
             assert pkg in DYNAMIC_IMPORTS, (
-                f'{where} imports modules by name at run time: say which in DYNAMIC_IMPORTS')
+                f'{where} imports modules by name at run time: say which in DYNAMIC_IMPORTS'
+            )
             what, modules = DYNAMIC_IMPORTS[pkg]
             names |= set(modules())
             where, dynamic_seen = f'{where} ({what})', True
@@ -308,8 +332,8 @@ def _dependencies(pkg, indexes):
             names |= started
             if computed:
                 assert pkg in LAUNCHED_PACKAGES, (
-                    f'{where} starts nodes of packages it computes: say which in '
-                    'LAUNCHED_PACKAGES')
+                    f'{where} starts nodes of packages it computes: say which in LAUNCHED_PACKAGES'
+                )
                 what, packages = LAUNCHED_PACKAGES[pkg]
                 names |= set(packages())
                 where = f'{where} ({what})'
@@ -324,10 +348,13 @@ def _dependencies(pkg, indexes):
                 required.setdefault(SYSTEM_KEYS[top], where)
             else:
                 unknown.append(f'{top} ({where})')
-    assert not unknown, (f'src/{pkg}: imports neither ROS packages nor known system packages: '
-                         f'{unknown}; add their rosdep keys to SYSTEM_KEYS')
+    assert not unknown, (
+        f'src/{pkg}: imports neither ROS packages nor known system packages: '
+        f'{unknown}; add their rosdep keys to SYSTEM_KEYS'
+    )
     assert dynamic_seen or pkg not in DYNAMIC_IMPORTS, (
-        f'DYNAMIC_IMPORTS[{pkg!r}] is stale: src/{pkg} imports nothing by name any more')
+        f'DYNAMIC_IMPORTS[{pkg!r}] is stale: src/{pkg} imports nothing by name any more'
+    )
     # Our pip packages are installed by pip with their own requirements, so what they import is
     # not required here; a package may still declare it (rosdep then installs it on a full ROS
     # install), as long as the pip modules it imports really import it.
@@ -347,10 +374,13 @@ def test_exec_depends_match_the_imports(pkg):
     required, allowed = _dependencies(pkg, indexes)
     exceptions = EXEC_DEPEND_EXCEPTIONS.get(pkg, {})
     missing = {dep: where for dep, where in required.items() if dep not in declared}
-    assert not missing, f'src/{pkg}/package.xml lacks exec_depends (dependency: imported in): ' \
-        f'{missing}'
+    assert not missing, (
+        f'src/{pkg}/package.xml lacks exec_depends (dependency: imported in): {missing}'
+    )
     unused = sorted(declared - set(required) - allowed - set(exceptions))
-    assert not unused, (f'src/{pkg}/package.xml: exec_depends imported nowhere in the package: '
-                        f'{unused} (remove them, or document why in EXEC_DEPEND_EXCEPTIONS)')
+    assert not unused, (
+        f'src/{pkg}/package.xml: exec_depends imported nowhere in the package: '
+        f'{unused} (remove them, or document why in EXEC_DEPEND_EXCEPTIONS)'
+    )
     stale = sorted(set(exceptions) - declared)
     assert not stale, f'EXEC_DEPEND_EXCEPTIONS[{pkg!r}] names undeclared dependencies: {stale}'

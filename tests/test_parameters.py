@@ -40,12 +40,20 @@ from attitude_core.status import PlannerStatus
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE1 = (ROOT / "scenarios" / "case1.yaml").read_text(encoding="utf-8")
-NODE_TABLES = {"planner": PLANNER, "controller": CONTROLLER, "simulator": SIMULATOR,
-               "recorder": RECORDER}
+NODE_TABLES = {
+    "planner": PLANNER,
+    "controller": CONTROLLER,
+    "simulator": SIMULATOR,
+    "recorder": RECORDER,
+}
 # Every scenario row under its dotted key, with the names of case1.yaml.
 CASE1_ROWS = scenario_keys(("star_tracker",), ("object_1", "object_2", "object_3"))
-ALL_ROWS = (list(SCENARIO_PARAMETERS) + list(INSTRUMENT_PARAMETERS) + list(OBJECT_PARAMETERS)
-            + [p for table in NODE_TABLES.values() for p in table.own])
+ALL_ROWS = (
+    list(SCENARIO_PARAMETERS)
+    + list(INSTRUMENT_PARAMETERS)
+    + list(OBJECT_PARAMETERS)
+    + [p for table in NODE_TABLES.values() for p in table.own]
+)
 
 
 def row(key: str, rows=CASE1_ROWS) -> Param:
@@ -67,45 +75,55 @@ def p(kind: str, **kw) -> Param:
 
 # --- Bounds ----------------------------------------------------------------------------
 
-@pytest.mark.parametrize("bounds, text", [
-    (Bounds(0.0, 180.0, hi_open=True), "[0, 180)"),
-    (Bounds(0.0, 90.0, lo_open=True, hi_open=True), "(0, 90)"),
-    (Bounds(16, 100_000), "[16, 100000]"),
-    (Bounds(-1.5, 2.5, lo_open=True), "(-1.5, 2.5]"),
-    (gt(0.0), "> 0"),
-    (ge(0.0), ">= 0"),
-    (Bounds(hi=5.0), "<= 5"),
-    (Bounds(hi=5.0, hi_open=True), "< 5"),
-])
+
+@pytest.mark.parametrize(
+    "bounds, text",
+    [
+        (Bounds(0.0, 180.0, hi_open=True), "[0, 180)"),
+        (Bounds(0.0, 90.0, lo_open=True, hi_open=True), "(0, 90)"),
+        (Bounds(16, 100_000), "[16, 100000]"),
+        (Bounds(-1.5, 2.5, lo_open=True), "(-1.5, 2.5]"),
+        (gt(0.0), "> 0"),
+        (ge(0.0), ">= 0"),
+        (Bounds(hi=5.0), "<= 5"),
+        (Bounds(hi=5.0, hi_open=True), "< 5"),
+    ],
+)
 def test_bounds_text(bounds, text):
     assert bounds.text() == text
 
 
-@pytest.mark.parametrize("bounds, x, message", [
-    (Bounds(0.0, 180.0, hi_open=True), 180.0, "must be in [0, 180), got 180.0"),
-    (Bounds(0.0, 180.0, hi_open=True), -1e-9, "must be in [0, 180), got -1e-09"),
-    (Bounds(0.0, 90.0, lo_open=True, hi_open=True), 0.0, "must be in (0, 90), got 0.0"),
-    (Bounds(16, 100_000), 15, "must be in [16, 100000], got 15"),
-    (Bounds(16, 100_000), 100_001, "must be in [16, 100000], got 100001"),
-    (gt(0.0), 0.0, "must be > 0, got 0.0"),
-    (ge(0.0), -1.0, "must be >= 0, got -1.0"),
-    (Bounds(hi=5.0), 5.5, "must be <= 5, got 5.5"),
-    (Bounds(hi=5.0, hi_open=True), 5.0, "must be < 5, got 5.0"),
-])
+@pytest.mark.parametrize(
+    "bounds, x, message",
+    [
+        (Bounds(0.0, 180.0, hi_open=True), 180.0, "must be in [0, 180), got 180.0"),
+        (Bounds(0.0, 180.0, hi_open=True), -1e-9, "must be in [0, 180), got -1e-09"),
+        (Bounds(0.0, 90.0, lo_open=True, hi_open=True), 0.0, "must be in (0, 90), got 0.0"),
+        (Bounds(16, 100_000), 15, "must be in [16, 100000], got 15"),
+        (Bounds(16, 100_000), 100_001, "must be in [16, 100000], got 100001"),
+        (gt(0.0), 0.0, "must be > 0, got 0.0"),
+        (ge(0.0), -1.0, "must be >= 0, got -1.0"),
+        (Bounds(hi=5.0), 5.5, "must be <= 5, got 5.5"),
+        (Bounds(hi=5.0, hi_open=True), 5.0, "must be < 5, got 5.0"),
+    ],
+)
 def test_bounds_check_refuses_with_its_text(bounds, x, message):
     assert bounds.check(x) == message
 
 
-@pytest.mark.parametrize("bounds, inside", [
-    (Bounds(0.0, 180.0, hi_open=True), [0.0, 179.999, math.nextafter(180.0, 0.0)]),
-    (Bounds(0.0, 90.0, lo_open=True, hi_open=True), [5e-324, 45.0, math.nextafter(90.0, 0.0)]),
-    (Bounds(16, 100_000), [16, 100_000]),
-    (gt(0.0), [5e-324, 1e300]),
-    (ge(0.0), [0.0, -0.0, 1.0]),
-    (Bounds(hi=5.0), [5.0, -1e300]),
-    (Bounds(hi=5.0, hi_open=True), [math.nextafter(5.0, 0.0)]),
-    (Bounds(), [-1e300, 0.0, 1e300]),
-])
+@pytest.mark.parametrize(
+    "bounds, inside",
+    [
+        (Bounds(0.0, 180.0, hi_open=True), [0.0, 179.999, math.nextafter(180.0, 0.0)]),
+        (Bounds(0.0, 90.0, lo_open=True, hi_open=True), [5e-324, 45.0, math.nextafter(90.0, 0.0)]),
+        (Bounds(16, 100_000), [16, 100_000]),
+        (gt(0.0), [5e-324, 1e300]),
+        (ge(0.0), [0.0, -0.0, 1.0]),
+        (Bounds(hi=5.0), [5.0, -1e300]),
+        (Bounds(hi=5.0, hi_open=True), [math.nextafter(5.0, 0.0)]),
+        (Bounds(), [-1e300, 0.0, 1e300]),
+    ],
+)
 def test_bounds_check_accepts_inside(bounds, inside):
     for x in inside:
         assert bounds.check(x) is None, x
@@ -127,31 +145,43 @@ def test_unbounded_bounds_have_a_text():
 def test_bound_text_of_integer_rows_is_integers():
     for param in ALL_ROWS:
         if param.kind == "int" and param.bounds is not None:
-            assert re.fullmatch(r"[\[(]-?\d+, -?\d+[\])]|[<>]=? -?\d+",
-                                param.bounds.text()), (param.key, param.bounds.text())
+            assert re.fullmatch(r"[\[(]-?\d+, -?\d+[\])]|[<>]=? -?\d+", param.bounds.text()), (
+                param.key,
+                param.bounds.text(),
+            )
 
 
 # --- convert() per kind -----------------------------------------------------------------
+
 
 def test_float_accepts_a_float():
     value = convert(p("float"), 2.5, "src.yaml")
     assert value == 2.5 and type(value) is float
 
 
-@pytest.mark.parametrize("raw, message", [
-    (10, "expected float, got integer 10; write it as a YAML float, e.g. 10.0 "
-         "(ROS 2 parameters are strongly typed)"),
-    (0, "expected float, got integer 0; write it as a YAML float, e.g. 0.0 "
-        "(ROS 2 parameters are strongly typed)"),
-    ("1.5", "expected float, got string '1.5'; write it as a YAML float, e.g. 1.5"),
-    ("fast", "expected float, got string 'fast'"),
-    (True, "expected float, got boolean True"),
-    (None, "expected float, got null None"),
-    ([1.0], "expected float, got list [1.0]"),
-    (float("nan"), "must be finite, got nan"),
-    (float("inf"), "must be finite, got inf"),
-    (float("-inf"), "must be finite, got -inf"),
-])
+@pytest.mark.parametrize(
+    "raw, message",
+    [
+        (
+            10,
+            "expected float, got integer 10; write it as a YAML float, e.g. 10.0 "
+            "(ROS 2 parameters are strongly typed)",
+        ),
+        (
+            0,
+            "expected float, got integer 0; write it as a YAML float, e.g. 0.0 "
+            "(ROS 2 parameters are strongly typed)",
+        ),
+        ("1.5", "expected float, got string '1.5'; write it as a YAML float, e.g. 1.5"),
+        ("fast", "expected float, got string 'fast'"),
+        (True, "expected float, got boolean True"),
+        (None, "expected float, got null None"),
+        ([1.0], "expected float, got list [1.0]"),
+        (float("nan"), "must be finite, got nan"),
+        (float("inf"), "must be finite, got inf"),
+        (float("-inf"), "must be finite, got -inf"),
+    ],
+)
 def test_float_is_strict(raw, message):
     assert reason(p("float"), raw) == message
 
@@ -166,21 +196,27 @@ def test_float_bounds_apply_after_conversion():
     assert reason(p("float", bounds=gt(0.0)), 0).startswith("expected float")
 
 
-@pytest.mark.parametrize("raw, message", [
-    (1.0, "expected integer, got float 1.0"),
-    (True, "expected integer, got boolean True"),
-    ("3", "expected integer, got string '3'"),
-])
+@pytest.mark.parametrize(
+    "raw, message",
+    [
+        (1.0, "expected integer, got float 1.0"),
+        (True, "expected integer, got boolean True"),
+        ("3", "expected integer, got string '3'"),
+    ],
+)
 def test_int_is_strict(raw, message):
     assert reason(p("int"), raw) == message
     assert convert(p("int"), 3, "src.yaml") == 3
 
 
-@pytest.mark.parametrize("raw, message", [
-    (1, "expected boolean, got integer 1"),
-    ("true", "expected boolean, got string 'true'"),
-    (None, "expected boolean, got null None"),
-])
+@pytest.mark.parametrize(
+    "raw, message",
+    [
+        (1, "expected boolean, got integer 1"),
+        ("true", "expected boolean, got string 'true'"),
+        (None, "expected boolean, got null None"),
+    ],
+)
 def test_bool_is_strict(raw, message):
     assert reason(p("bool"), raw) == message
     assert convert(p("bool"), True, "src.yaml") is True
@@ -198,19 +234,23 @@ def test_vec3_and_matrix3():
     assert reason(p("matrix3"), [0.0] * 8) == "expected a list of 9 floats, got 8 elements"
 
 
-@pytest.mark.parametrize("raw", [[1.04, 0.0, 0.0], [0.0, -0.96, 0.0], [0.0, -0.981, -0.196],
-                                 [0.6, 0.8, 0.02]])
+@pytest.mark.parametrize(
+    "raw", [[1.04, 0.0, 0.0], [0.0, -0.96, 0.0], [0.0, -0.981, -0.196], [0.6, 0.8, 0.02]]
+)
 def test_unit3_normalises_within_five_percent(raw):
     u = convert(p("unit3"), raw, "s")
     assert abs(np.linalg.norm(u) - 1.0) < 1e-15
     np.testing.assert_allclose(u, np.array(raw) / np.linalg.norm(raw), rtol=0, atol=1e-16)
 
 
-@pytest.mark.parametrize("raw, norm", [([1.06, 0.0, 0.0], "1.06"), ([0.0, 0.94, 0.0], "0.94"),
-                                       ([1.0, 1.0, 0.0], "1.414")])
+@pytest.mark.parametrize(
+    "raw, norm",
+    [([1.06, 0.0, 0.0], "1.06"), ([0.0, 0.94, 0.0], "0.94"), ([1.0, 1.0, 0.0], "1.414")],
+)
 def test_unit3_refuses_a_norm_off_by_more_than_five_percent(raw, norm):
-    assert reason(p("unit3"), raw) == ("must be a unit vector (norm within 5% of 1), "
-                                       f"got norm {norm}")
+    assert reason(p("unit3"), raw) == (
+        f"must be a unit vector (norm within 5% of 1), got norm {norm}"
+    )
 
 
 def test_unit3_refuses_zero():
@@ -218,7 +258,7 @@ def test_unit3_refuses_zero():
 
 
 def test_mrp_longer_than_one_is_taken_as_its_shadow_set():
-    sigma = np.array([0.6, 0.8, 0.6])                      # |sigma|^2 = 1.36
+    sigma = np.array([0.6, 0.8, 0.6])  # |sigma|^2 = 1.36
     value = convert(p("mrp"), sigma.tolist(), "s")
     np.testing.assert_allclose(value, -sigma / 1.36, rtol=0, atol=1e-16)
     assert np.linalg.norm(value) <= 1.0
@@ -254,14 +294,16 @@ def test_str_list():
 
 def test_data_file(tmp_path):
     fis = p("data_file")
-    assert convert(fis, "fis_attractive.yaml", "s") == "fis_attractive.yaml"   # packaged
-    assert reason(fis, "no_such_fis.yaml").startswith("'no_such_fis.yaml' is not a packaged "
-                                                      "FIS file")
+    assert convert(fis, "fis_attractive.yaml", "s") == "fis_attractive.yaml"  # packaged
+    assert reason(fis, "no_such_fis.yaml").startswith(
+        "'no_such_fis.yaml' is not a packaged FIS file"
+    )
     assert reason(fis, "") == "must be a non-empty string"
     (tmp_path / "mine").mkdir()
     (tmp_path / "mine" / "fis.yaml").write_text("{}\n")
     assert convert(fis, "mine/fis.yaml", "s", base_dir=tmp_path) == str(
-        (tmp_path / "mine" / "fis.yaml").resolve())
+        (tmp_path / "mine" / "fis.yaml").resolve()
+    )
     assert reason(fis, "mine/other.yaml", base_dir=tmp_path).endswith("does not exist")
 
 
@@ -281,7 +323,7 @@ def test_check_runs_after_the_type_and_bounds():
     param = p("vec3", check=positive_sum)
     assert reason(param, [-1.0, 0.5, 0.25]) == "sum must be > 0, got -0.25"
     assert reason(param, [1, 0.5, 0.25]).startswith("element 0: expected float")
-    assert len(calls) == 1                                   # not called on a type error
+    assert len(calls) == 1  # not called on a type error
     bounded = p("float", bounds=ge(0.0), check=lambda v: "never")
     assert reason(bounded, -1.0) == "must be >= 0, got -1.0"  # the bound is reported first
     assert reason(bounded, 1.0) == "never"
@@ -289,12 +331,11 @@ def test_check_runs_after_the_type_and_bounds():
 
 def test_inertia_row_refuses_non_physical_bodies():
     inertia = row("inertia_kgm2")
-    assert "must be symmetric" in reason(inertia, [10.0, 1.0, 0.0, 0.0, 10.0, 0.0,
-                                                   0.0, 0.0, 10.0])
-    assert "must be positive definite" in reason(inertia, [10.0, 0.0, 0.0, 0.0, -1.0, 0.0,
-                                                           0.0, 0.0, 10.0])
-    assert "triangle inequality" in reason(inertia, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0,
-                                                     0.0, 0.0, 3.0])
+    assert "must be symmetric" in reason(inertia, [10.0, 1.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 10.0])
+    assert "must be positive definite" in reason(
+        inertia, [10.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 10.0]
+    )
+    assert "triangle inequality" in reason(inertia, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 3.0])
     j = convert(inertia, [10.0, 0.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 10.0], "s")
     np.testing.assert_array_equal(j, 10.0 * np.eye(3))
 
@@ -329,8 +370,7 @@ def test_unknown_kind_is_refused():
 def test_values_from_defaults_required_and_error_class():
     rows = (Param("a", "float", "d", 1.5), Param("b", "int", "d"), Param("c", "str", "d", "x"))
     assert values_from(rows, {"b": 2}, "node") == {"a": 1.5, "b": 2, "c": "x"}
-    assert values_from(rows, {"a": 3.0, "b": 2, "c": "y"}, "node") == {"a": 3.0, "b": 2,
-                                                                      "c": "y"}
+    assert values_from(rows, {"a": 3.0, "b": 2, "c": "y"}, "node") == {"a": 3.0, "b": 2, "c": "y"}
     with pytest.raises(NodeParameterError) as info:
         values_from(rows, {}, "node")
     assert (info.value.key, info.value.reason) == ("b", "missing required parameter")
@@ -343,13 +383,20 @@ def test_values_from_defaults_required_and_error_class():
 
 # --- the tables -------------------------------------------------------------------------
 
+
 def test_every_scenario_row_has_a_description_and_a_ros_type():
     assert len(CASE1_ROWS) == len({q.key for q in CASE1_ROWS})
     for param in CASE1_ROWS:
         assert param.description.strip(), param.key
         assert param.ros_type == ROS_TYPES[param.kind]
-        assert param.ros_type in {"string", "string_array", "integer", "double", "bool",
-                                  "double_array"}
+        assert param.ros_type in {
+            "string",
+            "string_array",
+            "integer",
+            "double",
+            "bool",
+            "double_array",
+        }
 
 
 @pytest.mark.parametrize("param", ALL_ROWS, ids=lambda q: q.key)
@@ -360,7 +407,7 @@ def test_bounds_are_on_numbers_and_shown_in_the_description(param):
     assert param.rule == param.bounds.text()
     assert param.full_description == f"{param.description} ({param.bounds.text()})"
     if not param.required and not isinstance(param.default, ByVariant):
-        assert param.bounds.check(param.default) is None     # the default is in bounds
+        assert param.bounds.check(param.default) is None  # the default is in bounds
 
 
 @pytest.mark.parametrize("param", [q for q in ALL_ROWS if q.choices], ids=lambda q: q.key)
@@ -375,8 +422,11 @@ def test_rows_without_a_rule_show_the_bare_description():
     assert name.rule is None and name.full_description == name.description
 
 
-@pytest.mark.parametrize("param", [q for q in SCENARIO_PARAMETERS
-                                   if isinstance(q.default, ByVariant)], ids=lambda q: q.key)
+@pytest.mark.parametrize(
+    "param",
+    [q for q in SCENARIO_PARAMETERS if isinstance(q.default, ByVariant)],
+    ids=lambda q: q.key,
+)
 def test_by_variant_defaults_resolve_and_are_valid(param):
     assert param.default_for("improved") == param.default.improved
     assert param.default_for("paper") == param.default.paper
@@ -403,8 +453,7 @@ def test_the_loader_applies_the_variant_defaults(variant):
         if param.key.startswith("planner.") and param.key != "planner.variant":
             assert getattr(sc.planner, param.key.split(".", 1)[1]) == param.default_for(variant)
     # A key given explicitly overrides the variant's default.
-    sc = loads_scenario(CASE1 + f"    planner:\n      variant: {variant}\n"
-                                "      gamma_deg: 33.0\n")
+    sc = loads_scenario(CASE1 + f"    planner:\n      variant: {variant}\n      gamma_deg: 33.0\n")
     assert sc.planner.gamma_deg == 33.0
 
 
@@ -412,10 +461,14 @@ def test_renamed_keeps_the_row():
     half = INSTRUMENT_PARAMETERS[1].renamed("instruments.cam.half_angle_deg")
     assert half.key == "instruments.cam.half_angle_deg"
     assert (half.kind, half.bounds, half.description) == (
-        "float", INSTRUMENT_PARAMETERS[1].bounds, INSTRUMENT_PARAMETERS[1].description)
+        "float",
+        INSTRUMENT_PARAMETERS[1].bounds,
+        INSTRUMENT_PARAMETERS[1].description,
+    )
 
 
 # --- the loader agrees with the table: values just outside each bound ---------------------
+
 
 def yaml_number(x: float | int) -> str:
     """``x`` as YAML 1.1 text that reads back as exactly ``x`` with its type."""
@@ -459,13 +512,26 @@ def outside_values(param: Param) -> list[float | int]:
 def inside_values(param: Param) -> list[float | int]:
     b = param.bounds
     if param.kind == "int":
-        return [v for v in ((b.lo + 1 if b.lo_open else b.lo) if b.lo is not None else None,
-                            (b.hi - 1 if b.hi_open else b.hi) if b.hi is not None else None)
-                if v is not None]
-    return [v for v in ((math.nextafter(b.lo, math.inf) if b.lo_open else float(b.lo))
-                        if b.lo is not None else None,
-                        (math.nextafter(b.hi, -math.inf) if b.hi_open else float(b.hi))
-                        if b.hi is not None else None) if v is not None]
+        return [
+            v
+            for v in (
+                (b.lo + 1 if b.lo_open else b.lo) if b.lo is not None else None,
+                (b.hi - 1 if b.hi_open else b.hi) if b.hi is not None else None,
+            )
+            if v is not None
+        ]
+    return [
+        v
+        for v in (
+            (math.nextafter(b.lo, math.inf) if b.lo_open else float(b.lo))
+            if b.lo is not None
+            else None,
+            (math.nextafter(b.hi, -math.inf) if b.hi_open else float(b.hi))
+            if b.hi is not None
+            else None,
+        )
+        if v is not None
+    ]
 
 
 BOUNDED_ROWS = [q for q in CASE1_ROWS if q.bounds is not None]
@@ -473,17 +539,23 @@ BOUNDED_ROWS = [q for q in CASE1_ROWS if q.bounds is not None]
 
 def test_bounded_rows_include_the_closed_ones():
     closed = {q.key for q in BOUNDED_ROWS if q.bounds.closed() is not None}
-    assert closed == {"planner.gamma_deg", "planner.safety_margin_deg",
-                      "planner.obstacle_samples", "instruments.star_tracker.half_angle_deg"}
+    assert closed == {
+        "planner.gamma_deg",
+        "planner.safety_margin_deg",
+        "planner.obstacle_samples",
+        "instruments.star_tracker.half_angle_deg",
+    }
 
 
 def test_documented_rules_of_the_angle_and_sample_rows():
     """The bounds the paper's geometry needs: a rotation angle in [0, 180) deg, a cone
     half-angle strictly inside (0, 90) deg, a positive step and time."""
     assert {q.key: q.rule for q in BOUNDED_ROWS if q.bounds.closed() is not None} == {
-        "planner.gamma_deg": "[0, 180)", "planner.safety_margin_deg": "[0, 45)",
+        "planner.gamma_deg": "[0, 180)",
+        "planner.safety_margin_deg": "[0, 45)",
         "planner.obstacle_samples": "[16, 100000]",
-        "instruments.star_tracker.half_angle_deg": "(0, 90)"}
+        "instruments.star_tracker.half_angle_deg": "(0, 90)",
+    }
     assert row("dt_s").rule == row("sim_time_s").rule == "> 0"
     assert row("planner.max_accel_mrp_s2").rule == ">= 0"
 
@@ -514,11 +586,12 @@ def test_loader_does_not_refuse_the_key_just_inside_the_bound(param):
     for value in inside_values(param):
         try:
             loads_scenario(with_value(CASE1, param.key, value))
-        except ScenarioError as exc:   # another rule, e.g. dt_s = 5e-324: too many steps
+        except ScenarioError as exc:  # another rule, e.g. dt_s = 5e-324: too many steps
             assert exc.key != param.key or param.bounds.text() not in exc.reason, str(exc)
 
 
 # --- node tables ------------------------------------------------------------------------
+
 
 def test_reads_scenario_key_wildcards():
     assert PLANNER.reads_scenario_key("planner.gamma_deg")
@@ -526,17 +599,17 @@ def test_reads_scenario_key_wildcards():
     assert PLANNER.reads_scenario_key("instruments.star_tracker.half_angle_deg")
     assert PLANNER.reads_scenario_key("bright_objects.object_1.direction_inertial")
     assert PLANNER.reads_scenario_key("desired_mrp")
-    assert not PLANNER.reads_scenario_key("planner")              # the group, not a key
-    assert not PLANNER.reads_scenario_key("plannerx.gamma_deg")   # no prefix match
+    assert not PLANNER.reads_scenario_key("planner")  # the group, not a key
+    assert not PLANNER.reads_scenario_key("plannerx.gamma_deg")  # no prefix match
     assert not PLANNER.reads_scenario_key("controller.kp_over_j")
     assert not PLANNER.reads_scenario_key("initial_mrp")
     assert CONTROLLER.reads_scenario_key("controller.kd_over_j")
     assert not CONTROLLER.reads_scenario_key("planner.variant")
     assert SIMULATOR.reads_scenario_key("dt_s")
-    assert not SIMULATOR.reads_scenario_key("dt_s.extra")         # exact key, no wildcard
+    assert not SIMULATOR.reads_scenario_key("dt_s.extra")  # exact key, no wildcard
     assert not SIMULATOR.reads_scenario_key("desired_mrp")
     for key in (q.key for q in CASE1_ROWS):
-        assert not RECORDER.reads_scenario_key(key)               # takes no scenario
+        assert not RECORDER.reads_scenario_key(key)  # takes no scenario
 
 
 def test_reads_scenario_key_custom_table():
@@ -556,16 +629,23 @@ def test_node_scenario_patterns_name_real_scenario_keys(role):
         else:
             assert pattern in keys, pattern
     own = {q.key for q in table.own}
-    assert not own & set(keys), own & set(keys)                   # own rows are not scenario
+    assert not own & set(keys), own & set(keys)  # own rows are not scenario
 
 
 def test_each_node_reads_what_it_needs():
-    assert all(SIMULATOR.reads_scenario_key(k) for k in (
-        "sim_time_s", "dt_s", "inertia_kgm2", "initial_mrp", "initial_rate_rad_s"))
-    assert all(CONTROLLER.reads_scenario_key(k) for k in (
-        "inertia_kgm2", "controller.kp_over_j", "controller.kd_over_j"))
-    assert all(PLANNER.reads_scenario_key(q.key) for q in CASE1_ROWS
-               if q.key.split(".")[0] in ("planner", "instruments", "bright_objects"))
+    assert all(
+        SIMULATOR.reads_scenario_key(k)
+        for k in ("sim_time_s", "dt_s", "inertia_kgm2", "initial_mrp", "initial_rate_rad_s")
+    )
+    assert all(
+        CONTROLLER.reads_scenario_key(k)
+        for k in ("inertia_kgm2", "controller.kp_over_j", "controller.kd_over_j")
+    )
+    assert all(
+        PLANNER.reads_scenario_key(q.key)
+        for q in CASE1_ROWS
+        if q.key.split(".")[0] in ("planner", "instruments", "bright_objects")
+    )
 
 
 def test_node_own_defaults_are_valid_values():
@@ -580,7 +660,9 @@ def test_simulator_time_mode_and_bounds():
     with pytest.raises(NodeParameterError) as info:
         values_from(rows, {"time_mode": "wallclock"}, "sim")
     assert (info.value.key, info.value.reason) == (
-        "time_mode", "must be one of ['lockstep', 'realtime'], got 'wallclock'")
+        "time_mode",
+        "must be one of ['lockstep', 'realtime'], got 'wallclock'",
+    )
     with pytest.raises(NodeParameterError) as info:
         values_from(rows, {"lockstep.expected_subscribers": 0}, "sim")
     assert info.value.key == "lockstep.expected_subscribers"
@@ -599,7 +681,7 @@ def test_recorder_stop_status_row_refuses_a_non_status_name():
     stop = row("stop_on_planner_status", RECORDER.own)
     statuses = [s.value for s in PlannerStatus]
     assert convert(stop, ["arrived", "stuck"], "rec") == ("arrived", "stuck")
-    assert convert(stop, [""], "rec") == ("",)                    # the default: no stop
+    assert convert(stop, [""], "rec") == ("",)  # the default: no stop
     assert convert(stop, [], "rec") == ()
     assert stop.default == ("",)
     assert reason(stop, ["arrived", "landed"]) == f"'landed' is not a planner status {statuses}"

@@ -36,14 +36,25 @@ from attitude_tools.report.html import format_value
 ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.prefix) / "bin"
 HAVE_WORKSPACE = (ROOT / "ros2_ws" / "install" / "setup.bash").exists()
-COMPARED_KEYS = ("reached", "t_reach_s", "min_margin_deg", "min_margin_deg_per_pair",
-                 "path_length_mrp", "peak_torque_nm", "final_rate_rad_s",
-                 "planner_step_us_median")
+COMPARED_KEYS = (
+    "reached",
+    "t_reach_s",
+    "min_margin_deg",
+    "min_margin_deg_per_pair",
+    "path_length_mrp",
+    "peak_torque_nm",
+    "final_rate_rad_s",
+    "planner_step_us_median",
+)
 
 
 def report(*args, timeout=120):
-    return subprocess.run([str(BIN / "attitude-report"), *map(str, args)],
-                          capture_output=True, text=True, timeout=timeout)
+    return subprocess.run(
+        [str(BIN / "attitude-report"), *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -58,9 +69,18 @@ def recorded(tmp_path_factory, reserve_ros_domain):
             env = domain.env()
             env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
             procs[name] = subprocess.Popen(
-                [str(BIN / "attitude-run"), str(ROOT / "scenarios" / f"{name}.yaml"),
-                 "--out", str(base / name), "--quiet"],
-                env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+                [
+                    str(BIN / "attitude-run"),
+                    str(ROOT / "scenarios" / f"{name}.yaml"),
+                    "--out",
+                    str(base / name),
+                    "--quiet",
+                ],
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
         for name, proc in procs.items():
             out, _ = proc.communicate(timeout=240)
             assert proc.returncode == 0, f"{name}: {out}"
@@ -100,9 +120,11 @@ def summary_cells(page: str) -> dict:
     """data-key -> list of (exact JSON value, shown text) of the summary table cells."""
     cells = {}
     for key, exact, shown in re.findall(
-            r'<td[^>]*data-key="([^"]*)" data-value="([^"]*)"[^>]*>([^<]*)</td>', page):
+        r'<td[^>]*data-key="([^"]*)" data-value="([^"]*)"[^>]*>([^<]*)</td>', page
+    ):
         cells.setdefault(html.unescape(key), []).append(
-            (json.loads(html.unescape(exact)), html.unescape(shown)))
+            (json.loads(html.unescape(exact)), html.unescape(shown))
+        )
     return cells
 
 
@@ -159,8 +181,15 @@ def test_single_report_numbers_equal_attitude_run_summary(single):
     assert shown["steps_recorded"] == expected["steps_recorded"]
     # ...and the HTML table shows exactly those numbers.
     cells = summary_cells((run_dir / "report" / "report.html").read_text(encoding="utf-8"))
-    for key in ("reached", "t_reach_s", "min_margin_deg", "path_length_mrp",
-                "peak_torque_nm", "final_rate_rad_s", "planner_step_us_median"):
+    for key in (
+        "reached",
+        "t_reach_s",
+        "min_margin_deg",
+        "path_length_mrp",
+        "peak_torque_nm",
+        "final_rate_rad_s",
+        "planner_step_us_median",
+    ):
         assert cells[key] == [(shown[key], format_value(shown[key]))], key
     for pair, value in shown["min_margin_deg_per_pair"].items():
         assert cells[f"min_margin_deg_per_pair/{pair}"] == [(value, format_value(value))]
@@ -177,8 +206,8 @@ def test_comparison_overlays_both_runs_in_figures_and_table(recorded, comparison
         assert_valid_figure(comparison / name)
     page = (comparison / "report.html").read_text(encoding="utf-8")
     assert_self_contained(page, comparison)
-    table = page[page.index('<table id="summary">'):]
-    table = table[:table.index("</table>")]
+    table = page[page.index('<table id="summary">') :]
+    table = table[: table.index("</table>")]
     assert "<th>case1_paper (paper)</th>" in table and "<th>case1 (improved)</th>" in table
     doc = json.loads((comparison / "summary.json").read_text())
     assert [r["label"] for r in doc["runs"]] == ["case1_paper (paper)", "case1 (improved)"]
@@ -188,8 +217,7 @@ def test_comparison_overlays_both_runs_in_figures_and_table(recorded, comparison
         shown = doc["runs"][k]["summary"]
         for key in COMPARED_KEYS:
             assert shown[key] == expected[key], (name, key)
-        assert cells["t_reach_s"][k] == (expected["t_reach_s"],
-                                         format_value(expected["t_reach_s"]))
+        assert cells["t_reach_s"][k] == (expected["t_reach_s"], format_value(expected["t_reach_s"]))
     # The improved planner's point: lower peak torque than the paper-faithful FEPF.
     assert doc["runs"][1]["summary"]["peak_torque_nm"] < doc["runs"][0]["summary"]["peak_torque_nm"]
 
@@ -201,8 +229,17 @@ def test_comparison_labels_option_and_replacing_a_previous_report(recorded, tmp_
     out.mkdir()
     (out / "report.html").write_text("previous report")
     (out / "stale.png").write_bytes(b"old")
-    proc = report(recorded["case1_paper"], recorded["case1"], "--out", out,
-                  "--labels", "paper FEPF", "improved FEPF", "--dpi", "50")
+    proc = report(
+        recorded["case1_paper"],
+        recorded["case1"],
+        "--out",
+        out,
+        "--labels",
+        "paper FEPF",
+        "improved FEPF",
+        "--dpi",
+        "50",
+    )
     assert proc.returncode == 0, proc.stdout + proc.stderr
     assert not (out / "stale.png").exists()
     page = (out / "report.html").read_text(encoding="utf-8")
@@ -259,8 +296,9 @@ def test_small_circle_is_a_true_circle_on_the_sphere():
 
 def test_boresight_and_mrp_surface_agree_with_the_exact_margins():
     pair = Pair("st", "obj", (1.0, 0.0, 0.0), 20.0, (0.0, -0.981, -0.196))
-    geometry = KeepOutGeometry(np.array([pair.boresight_body]), np.array([20.0]),
-                               np.array([pair.direction_inertial]))
+    geometry = KeepOutGeometry(
+        np.array([pair.boresight_body]), np.array([20.0]), np.array([pair.direction_inertial])
+    )
     sigma = np.random.default_rng(1).uniform(-0.6, 0.6, (50, 3))
     b = boresight_inertial(sigma, pair.boresight_body)
     c = np.array(pair.direction_inertial) / np.linalg.norm(pair.direction_inertial)

@@ -48,15 +48,21 @@ def shim(*args, ament_prefix_path=None, env=None, **kwargs):
     if ament_prefix_path is not None:
         full_env['AMENT_PREFIX_PATH'] = os.pathsep.join(str(p) for p in ament_prefix_path)
     full_env.update(env or {})
-    return subprocess.run([PYTHON, '-m', 'attitude_tools.ros2_cli', *args], env=full_env,
-                          capture_output=True, text=True, timeout=30, **kwargs)
+    return subprocess.run(
+        [PYTHON, '-m', 'attitude_tools.ros2_cli', *args],
+        env=full_env,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        **kwargs,
+    )
 
 
 def parse(stdout):
     """pid, argv0, greeting and the list of arguments printed by FAKE_NODE."""
     lines = stdout.splitlines()
     fields = dict(line.split('=', 1) for line in lines[:3])
-    args = [line[len('arg='):] for line in lines[3:]]
+    args = [line[len('arg=') :] for line in lines[3:]]
     assert all(line.startswith('arg=') for line in lines[3:])
     return int(fields['pid']), fields['argv0'], fields['greeting'], args
 
@@ -67,8 +73,21 @@ def prefix(tmp_path):
 
 
 def test_exit_status_and_argv_pass_through(prefix):
-    argv = ['--ros-args', '-p', 'a:=1', '--params-file', 'f.yaml', '-r', '__node:=x',
-            'two words', '', '-h', '--prefix', 'x', '--']
+    argv = [
+        '--ros-args',
+        '-p',
+        'a:=1',
+        '--params-file',
+        'f.yaml',
+        '-r',
+        '__node:=x',
+        'two words',
+        '',
+        '-h',
+        '--prefix',
+        'x',
+        '--',
+    ]
     res = shim('run', 'demo_pkg', 'talker', *argv, ament_prefix_path=[prefix])
     assert res.returncode == 3, res.stderr
     assert res.stderr == ''
@@ -80,9 +99,13 @@ def test_exit_status_and_argv_pass_through(prefix):
 def test_process_is_replaced_by_the_executable(prefix):
     """exec: the node runs with the PID of the ros2 process, no Python parent left behind."""
     env = dict(BASE_ENV, AMENT_PREFIX_PATH=str(prefix))
-    proc = subprocess.Popen([PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', 'demo_pkg',
-                             'talker'], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen(
+        [PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', 'demo_pkg', 'talker'],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 3, err
     pid, _, _, _ = parse(out)
@@ -97,9 +120,13 @@ while :; do sleep 0.05; done
 """
     prefix = make_prefix(tmp_path / 'install', 'demo_pkg', {'waiter': (node, 0o755)})
     env = dict(BASE_ENV, AMENT_PREFIX_PATH=str(prefix))
-    proc = subprocess.Popen([PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', 'demo_pkg',
-                             'waiter'], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen(
+        [PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', 'demo_pkg', 'waiter'],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         assert proc.stdout.readline() == 'ready\n'
         proc.send_signal(signal.SIGTERM)
@@ -113,8 +140,17 @@ while :; do sleep 0.05; done
 
 
 def test_prefix_command_is_split_like_a_shell(prefix):
-    res = shim('run', '--prefix', "env 'GREETING=hello world'", 'demo_pkg', 'talker',
-               '--ros-args', '-p', 'a:=1', ament_prefix_path=[prefix])
+    res = shim(
+        'run',
+        '--prefix',
+        "env 'GREETING=hello world'",
+        'demo_pkg',
+        'talker',
+        '--ros-args',
+        '-p',
+        'a:=1',
+        ament_prefix_path=[prefix],
+    )
     assert res.returncode == 3, res.stderr
     _, argv0, greeting, args = parse(res.stdout)
     assert greeting == 'hello world'
@@ -124,17 +160,27 @@ def test_prefix_command_is_split_like_a_shell(prefix):
 
 def test_prefix_keeps_the_pid(prefix):
     env = dict(BASE_ENV, AMENT_PREFIX_PATH=str(prefix))
-    proc = subprocess.Popen([PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', '--prefix', 'env',
-                             'demo_pkg', 'talker'],
-                            env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [PYTHON, '-m', 'attitude_tools.ros2_cli', 'run', '--prefix', 'env', 'demo_pkg', 'talker'],
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     out, err = proc.communicate(timeout=30)
     assert proc.returncode == 3, err
     assert parse(out)[0] == proc.pid
 
 
 def test_prefix_command_not_found(prefix):
-    res = shim('run', '--prefix', 'no-such-wrapper-xyz --flag', 'demo_pkg', 'talker',
-               ament_prefix_path=[prefix])
+    res = shim(
+        'run',
+        '--prefix',
+        'no-such-wrapper-xyz --flag',
+        'demo_pkg',
+        'talker',
+        ament_prefix_path=[prefix],
+    )
     assert res.returncode == 127
     assert "cannot execute 'no-such-wrapper-xyz'" in res.stderr
     assert res.stdout == ''
@@ -169,11 +215,15 @@ def test_package_without_lib_directory(tmp_path):
 
 
 def test_no_executable_found(tmp_path):
-    prefix = make_prefix(tmp_path / 'install', 'demo_pkg', {
-        'talker': (FAKE_NODE, 0o644),               # not executable
-        '.hidden/talker': (FAKE_NODE, 0o755),       # folders starting with '.' are skipped
-        'listener': (FAKE_NODE, 0o755),             # another name
-    })
+    prefix = make_prefix(
+        tmp_path / 'install',
+        'demo_pkg',
+        {
+            'talker': (FAKE_NODE, 0o644),  # not executable
+            '.hidden/talker': (FAKE_NODE, 0o755),  # folders starting with '.' are skipped
+            'listener': (FAKE_NODE, 0o755),  # another name
+        },
+    )
     res = shim('run', 'demo_pkg', 'talker', ament_prefix_path=[prefix])
     assert res.returncode == 1
     assert res.stderr == 'No executable found\n'
@@ -188,15 +238,20 @@ def test_executable_in_a_subfolder_is_found(tmp_path):
 
 
 def test_multiple_executables_found(tmp_path):
-    prefix = make_prefix(tmp_path / 'install', 'demo_pkg', {
-        'talker': (FAKE_NODE, 0o755),
-        'sub/talker': (FAKE_NODE, 0o755),
-    })
+    prefix = make_prefix(
+        tmp_path / 'install',
+        'demo_pkg',
+        {
+            'talker': (FAKE_NODE, 0o755),
+            'sub/talker': (FAKE_NODE, 0o755),
+        },
+    )
     res = shim('run', 'demo_pkg', 'talker', ament_prefix_path=[prefix])
     assert res.returncode == 1
     lib = prefix / 'lib' / 'demo_pkg'
-    assert res.stderr == ('Multiple executables found:\n'
-                          f'- {lib / "talker"}\n- {lib / "sub" / "talker"}\n')
+    assert res.stderr == (
+        f'Multiple executables found:\n- {lib / "talker"}\n- {lib / "sub" / "talker"}\n'
+    )
     assert res.stdout == ''
 
 
@@ -238,6 +293,7 @@ def test_run_help_and_usage_errors():
 
 def test_main_returns_int_in_process(capsys):
     from attitude_tools.ros2_cli import main
+
     assert main(['-h']) == 0
     assert main(['topic']) == 2
     assert main(['run']) == 2
@@ -251,19 +307,31 @@ WS = ROOT / 'ros2_ws'
 
 def sourced(command):
     """Run ``command`` in bash after sourcing the workspace like the README says."""
-    script = (f'export AMENT_PREFIX_PATH={ROOT / ".venv"}; '
-              f'source {WS / "install" / "setup.bash"}; {command}')
-    return subprocess.run(['bash', '-c', script], cwd=WS, env=dict(BASE_ENV),
-                          capture_output=True, text=True, timeout=60)
+    script = (
+        f'export AMENT_PREFIX_PATH={ROOT / ".venv"}; '
+        f'source {WS / "install" / "setup.bash"}; {command}'
+    )
+    return subprocess.run(
+        ['bash', '-c', script],
+        cwd=WS,
+        env=dict(BASE_ENV),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
 
 
-@pytest.mark.skipif(not (WS / 'install' / 'setup.bash').is_file(),
-                    reason='ros2_ws not built (bash tools/bootstrap builds it)')
+@pytest.mark.skipif(
+    not (WS / 'install' / 'setup.bash').is_file(),
+    reason='ros2_ws not built (bash tools/bootstrap builds it)',
+)
 def test_workspace_index_resolves_packages():
-    res = sourced(f'{PYTHON} -c "import os; from ament_index_python import get_package_prefix; '
-                  f"print(os.environ['AMENT_PREFIX_PATH']); "
-                  f"print(get_package_prefix('attitude_planner')); "
-                  f"print(get_package_prefix('rclpy'))\"")
+    res = sourced(
+        f'{PYTHON} -c "import os; from ament_index_python import get_package_prefix; '
+        f"print(os.environ['AMENT_PREFIX_PATH']); "
+        f"print(get_package_prefix('attitude_planner')); "
+        f"print(get_package_prefix('rclpy'))\""
+    )
     assert res.returncode == 0, res.stderr
     path, planner, rclpy = res.stdout.splitlines()
     assert str(WS / 'install' / 'attitude_planner') in path.split(os.pathsep)
@@ -278,6 +346,7 @@ def test_workspace_index_resolves_packages():
 def console_scripts(pkg):
     """Names of the console_scripts declared in src/<pkg>/setup.py."""
     import ast
+
     tree = ast.parse((ROOT / 'src' / pkg / 'setup.py').read_text())
     for node in ast.walk(tree):
         if isinstance(node, ast.keyword) and node.arg == 'entry_points':
@@ -286,18 +355,26 @@ def console_scripts(pkg):
     return []
 
 
-WS_EXECUTABLES = [(pkg.name, exe) for pkg in sorted((ROOT / 'src').iterdir())
-                  if (pkg / 'package.xml').is_file() and (pkg / 'setup.py').is_file()
-                  for exe in console_scripts(pkg.name)]
+WS_EXECUTABLES = [
+    (pkg.name, exe)
+    for pkg in sorted((ROOT / 'src').iterdir())
+    if (pkg / 'package.xml').is_file() and (pkg / 'setup.py').is_file()
+    for exe in console_scripts(pkg.name)
+]
 
 
-@pytest.mark.skipif(not (WS / 'install' / 'setup.bash').is_file(),
-                    reason='ros2_ws not built (bash tools/bootstrap builds it)')
+@pytest.mark.skipif(
+    not (WS / 'install' / 'setup.bash').is_file(),
+    reason='ros2_ws not built (bash tools/bootstrap builds it)',
+)
 @pytest.mark.parametrize('pkg, exe', WS_EXECUTABLES)
 def test_workspace_executables_resolve(pkg, exe):
     """Every console script of a ROS package is where `ros2 run <pkg> <exe>` looks for it."""
-    res = sourced(f'{PYTHON} -c "from attitude_tools.ros2_cli import find_executable; '
-                  f"print(find_executable('{pkg}', '{exe}'))\"")
+    res = sourced(
+        f'{PYTHON} -c "from attitude_tools.ros2_cli import find_executable; '
+        f"print(find_executable('{pkg}', '{exe}'))\""
+    )
     assert res.returncode == 0, res.stderr
     assert Path(res.stdout.strip()) == WS / 'install' / pkg / 'lib' / pkg / exe, (
-        'ros2_ws/install is out of date: run bash tools/bootstrap')
+        'ros2_ws/install is out of date: run bash tools/bootstrap'
+    )

@@ -31,8 +31,10 @@ ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.prefix) / "bin"
 pytestmark = [
     pytest.mark.ros,
-    pytest.mark.skipif(not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-                       reason="colcon workspace not built (bash tools/bootstrap builds it)"),
+    pytest.mark.skipif(
+        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
+        reason="colcon workspace not built (bash tools/bootstrap builds it)",
+    ),
 ]
 
 
@@ -45,9 +47,13 @@ def ros_env(domain: int) -> dict:
 
 
 def attitude_run(scenario, out, domain: int, *extra, timeout=180):
-    return subprocess.run([str(BIN / "attitude-run"), str(scenario), "--out", str(out),
-                           "--quiet", *extra], env=ros_env(domain), capture_output=True,
-                          text=True, timeout=timeout)
+    return subprocess.run(
+        [str(BIN / "attitude-run"), str(scenario), "--out", str(out), "--quiet", *extra],
+        env=ros_env(domain),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
 
 
 def short_scenario(tmp_path, sim_time_s: float, name="case1") -> Path:
@@ -73,9 +79,14 @@ def test_lockstep_run_arrives_without_violation_from_the_bag_alone(paper_case):
     scenario = scenario_from_bag(bag)
     assert scenario.name == "case1_paper"
     run = run_from_bag(bag).run
-    reached, t_reach, _ = arrival_time(run.t, run.sigma_bn, run.omega_b, scenario.desired_mrp,
-                                       scenario.arrival.attitude_tol_deg,
-                                       scenario.arrival.rate_tol_rad_s)
+    reached, t_reach, _ = arrival_time(
+        run.t,
+        run.sigma_bn,
+        run.omega_b,
+        scenario.desired_mrp,
+        scenario.arrival.attitude_tol_deg,
+        scenario.arrival.rate_tol_rad_s,
+    )
     assert reached and t_reach < scenario.sim_time_s
     statuses = [m.msg.data for m in read_bag(bag, [PLANNER_STATUS])]
     assert statuses[0] == PlannerStatus.TRACKING and PlannerStatus.ARRIVED in statuses
@@ -107,12 +118,20 @@ def test_lockstep_trajectory_matches_the_offline_runner(paper_case):
 @pytest.mark.slow
 def test_summary_is_the_offline_summary_of_the_recorded_run(paper_case):
     import json
+
     summary = json.loads((paper_case / "summary.json").read_text())
     bag_run = run_from_bag(str(paper_case / "bag"))
     expected = summarize(bag_run.run)
-    for key in ("reached", "t_reach_s", "t_plan_arrival_s", "min_margin_deg",
-                "min_margin_deg_per_pair", "path_length_mrp", "peak_torque_nm",
-                "final_rate_rad_s"):
+    for key in (
+        "reached",
+        "t_reach_s",
+        "t_plan_arrival_s",
+        "min_margin_deg",
+        "min_margin_deg_per_pair",
+        "path_length_mrp",
+        "peak_torque_nm",
+        "final_rate_rad_s",
+    ):
         assert summary[key] == pytest.approx(expected[key], rel=1e-12), key
     offline = summarize(run_closed_loop(load_scenario(ROOT / "scenarios" / "case1_paper.yaml")))
     assert set(offline) <= set(summary)
@@ -125,10 +144,12 @@ def test_summary_is_the_offline_summary_of_the_recorded_run(paper_case):
 @pytest.mark.slow
 def test_bag_reads_back_with_an_independent_reader(paper_case):
     from rosbags.highlevel import AnyReader
+
     bag = paper_case / "bag"
     info = bag_info(str(bag))
-    counts = {t["topic_metadata"]["name"]: t["message_count"]
-              for t in info["topics_with_message_count"]}
+    counts = {
+        t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]
+    }
     assert set(counts) == {t.name for t in TOPICS}
     mine = [m.msg.quaternion for m in read_bag(str(bag), ["/spacecraft/attitude"])]
     with AnyReader([bag]) as reader:
@@ -154,6 +175,7 @@ def test_realtime_run_steps_on_the_wall_clock(tmp_path, ros_domain):
     # just below: no failure, a clean end of the scenario time).
     assert proc.returncode == 1, proc.stdout + proc.stderr
     import json
+
     summary = json.loads((out / "summary.json").read_text())
     assert summary["end_reason"] == "scenario time ended" and summary["failure"] is None
     assert summary["reached"] is False
@@ -169,8 +191,10 @@ def test_realtime_run_steps_on_the_wall_clock(tmp_path, ros_domain):
     np.testing.assert_allclose(run.sigma_t, expected, atol=1e-12)
     # Controller: each torque is the PD law (eq. 11) of the state and target of its stamp.
     gains = PdGains(sc.kp, sc.kd)
-    commanded = {m.msg.header.stamp.sec * 10**9 + m.msg.header.stamp.nanosec: m.msg.wrench.torque
-                 for m in read_bag(str(out / "bag"), [TORQUE])}
+    commanded = {
+        m.msg.header.stamp.sec * 10**9 + m.msg.header.stamp.nanosec: m.msg.wrench.torque
+        for m in read_bag(str(out / "bag"), [TORQUE])
+    }
     index = {s: k for k, s in enumerate(bag_run.stamps_ns.tolist())}
     answered = [s for s in commanded if s in index]
     assert len(answered) >= len(run.t) - 2
@@ -192,8 +216,11 @@ def test_realtime_run_steps_on_the_wall_clock(tmp_path, ros_domain):
 
 def test_bad_scenario_exits_2_and_writes_nothing(tmp_path, ros_domain):
     bad = tmp_path / "bad.yaml"
-    bad.write_text((ROOT / "scenarios" / "case1.yaml").read_text()
-                   .replace("half_angle_deg: 20.0", "half_angle_deg: 95.0"))
+    bad.write_text(
+        (ROOT / "scenarios" / "case1.yaml")
+        .read_text()
+        .replace("half_angle_deg: 20.0", "half_angle_deg: 95.0")
+    )
     out = tmp_path / "out"
     proc = attitude_run(bad, out, ros_domain)
     assert proc.returncode == 2
@@ -205,9 +232,21 @@ def test_bad_scenario_exits_2_and_writes_nothing(tmp_path, ros_domain):
 def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domain, clock_probe):
     scenario_path = short_scenario(tmp_path, 60.0)
     out = tmp_path / "interrupted"
-    proc = subprocess.Popen([str(BIN / "attitude-run"), str(scenario_path), "--out", str(out),
-                             "--mode", "realtime", "--quiet"], env=ros_env(ros_domain),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [
+            str(BIN / "attitude-run"),
+            str(scenario_path),
+            "--out",
+            str(out),
+            "--mode",
+            "realtime",
+            "--quiet",
+        ],
+        env=ros_env(ros_domain),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:  # some real-time steps: 20 steps of simulated time (dt 0.1 s), seen on /clock
         clock_probe.wait_clock(2.0, 60.0, alive=lambda: proc.poll() is None)
     finally:
@@ -216,12 +255,17 @@ def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domai
         _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 1  # interrupted is not success
     import json
+
     summary = json.loads((out / "summary.json").read_text())
     assert summary["failure"] == "interrupted"
     # Every node process ended (asked with SIGINT; attitude-run forces it after a grace
     # of a few seconds, so this wall-time bound is only a generous sanity check).
     assert summary["shutdown_s"] < 30.0 and set(summary["exit_codes"]) == {
-        "simulator", "planner", "controller", "recorder"}
+        "simulator",
+        "planner",
+        "controller",
+        "recorder",
+    }
     assert summary["exit_codes"]["recorder"] == 0  # the bag was finished, not killed
     bag_run = run_from_bag(str(out / "bag"))
     run = bag_run.run
@@ -230,12 +274,14 @@ def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domai
     # probe's, and one complete step (state, rate, applied torque) per tick, only the
     # last one possibly incomplete (the simulator applies a step's torque at the next tick).
     dt_ns = round(load_scenario(scenario_path).dt_s * 1e9)
-    ticks = sorted({m.msg.clock.sec * 10**9 + m.msg.clock.nanosec
-                    for m in read_bag(str(out / "bag"), [CLOCK])})
+    ticks = sorted(
+        {m.msg.clock.sec * 10**9 + m.msg.clock.nanosec for m in read_bag(str(out / "bag"), [CLOCK])}
+    )
     np.testing.assert_array_equal(ticks, dt_ns * np.arange(len(ticks)))
     assert ticks[-1] >= seen_ns >= 2 * 10**9
     assert len(ticks) - 1 <= len(run.t) <= len(ticks)
     assert np.all(np.diff(bag_run.stamps_ns) > 0)
-    min_margin, _ = dense_min_margin_deg(load_scenario(scenario_path).keep_out(), run.t,
-                                         run.sigma_bn, run.omega_b)
+    min_margin, _ = dense_min_margin_deg(
+        load_scenario(scenario_path).keep_out(), run.t, run.sigma_bn, run.omega_b
+    )
     assert min_margin > 0.0

@@ -31,6 +31,7 @@ TABLE1_C = np.array([[0.0, -0.981, -0.196], [-1.0, 0.0, 0.0], [0.958, 0.0, 0.287
 
 # --- the paper's cases ----------------------------------------------------------------
 
+
 @pytest.mark.parametrize('case', [1, 2])
 @pytest.mark.parametrize('suffix', ['', '_paper'])
 def test_paper_cases_match_table1(case, suffix):
@@ -47,8 +48,11 @@ def test_paper_cases_match_table1(case, suffix):
     np.testing.assert_array_equal(sc.half_angles_deg, [20.0])
     assert sc.bright_object_names == ('object_1', 'object_2', 'object_3')
     np.testing.assert_allclose(
-        sc.directions_inertial, TABLE1_C / np.linalg.norm(TABLE1_C, axis=1, keepdims=True),
-        rtol=0, atol=1e-15)
+        sc.directions_inertial,
+        TABLE1_C / np.linalg.norm(TABLE1_C, axis=1, keepdims=True),
+        rtol=0,
+        atol=1e-15,
+    )
     assert sc.kp_over_j == 5.5 and sc.kd_over_j == 3.1
     np.testing.assert_allclose(sc.kp, 5.5 * j)
     np.testing.assert_allclose(sc.kd, 3.1 * j)
@@ -68,6 +72,7 @@ def test_all_scenario_files_present():
 
 
 # --- every scenario file --------------------------------------------------------------
+
 
 def _straight_line_min_margin(sc, n=2001):
     t = np.linspace(0.0, 1.0, n)[:, None]
@@ -126,10 +131,20 @@ def test_scenario_file_is_a_ros2_params_file(path):
 
 # --- API details ----------------------------------------------------------------------
 
+
 def test_arrays_are_read_only():
     sc = load_scenario(SCENARIOS / 'case1.yaml')
-    for a in (sc.inertia_kgm2, sc.initial_mrp, sc.desired_mrp, sc.initial_rate_rad_s,
-              sc.boresights_body, sc.half_angles_deg, sc.directions_inertial, sc.kp, sc.kd):
+    for a in (
+        sc.inertia_kgm2,
+        sc.initial_mrp,
+        sc.desired_mrp,
+        sc.initial_rate_rad_s,
+        sc.boresights_body,
+        sc.half_angles_deg,
+        sc.directions_inertial,
+        sc.kp,
+        sc.kd,
+    ):
         with pytest.raises(ValueError):
             a[0] = 1.0
 
@@ -169,11 +184,31 @@ def test_parse_scenario_accepts_nested_and_dotted_names():
     nested = parse_scenario(_base_params())
     flat = parse_scenario(flatten_parameters(_base_params()))
     assert flatten_parameters({'a': {'b': 1, 'c': {'d': 'x'}}, 'e': 2.0}) == {
-        'a.b': 1, 'a.c.d': 'x', 'e': 2.0}
+        'a.b': 1,
+        'a.c.d': 'x',
+        'e': 2.0,
+    }
     np.testing.assert_array_equal(nested.desired_mrp, flat.desired_mrp)
-    assert nested.planner == flat.planner == PlannerConfig(
-        'improved', 'goal_plane', 60.0, 'fis_attractive.yaml', 'fis_repulsive.yaml',
-        0.03, 0.03, 0.3, 2.0, 0.01, 2.0, 1.0e-4, 10.0, 180)
+    assert (
+        nested.planner
+        == flat.planner
+        == PlannerConfig(
+            'improved',
+            'goal_plane',
+            60.0,
+            'fis_attractive.yaml',
+            'fis_repulsive.yaml',
+            0.03,
+            0.03,
+            0.3,
+            2.0,
+            0.01,
+            2.0,
+            1.0e-4,
+            10.0,
+            180,
+        )
+    )
     assert nested.source == '<dict>'
 
 
@@ -191,8 +226,13 @@ def test_explicit_planner_key_overrides_variant_default():
     params = _base_params()
     params['planner'] = {'variant': 'paper', 'max_accel_mrp_s2': 0.02, 'gamma_deg': 45.0}
     p = parse_scenario(params).planner
-    assert (p.variant, p.direction_axis, p.max_accel_mrp_s2, p.gamma_deg,
-            p.terminal_time_constant_s) == ('paper', 'paper', 0.02, 45.0, 0.0)
+    assert (
+        p.variant,
+        p.direction_axis,
+        p.max_accel_mrp_s2,
+        p.gamma_deg,
+        p.terminal_time_constant_s,
+    ) == ('paper', 'paper', 0.02, 45.0, 0.0)
 
 
 def test_fis_path_is_resolved_relative_to_scenario_file(tmp_path):
@@ -210,8 +250,8 @@ def test_fis_path_is_resolved_relative_to_scenario_file(tmp_path):
 
 def test_mrp_longer_than_one_is_replaced_by_its_shadow_set(tmp_path):
     params = _base_params()
-    params['initial_mrp'] = shadow(np.array([0.0, 0.0, 0.25])).tolist()   # [0, 0, -4]
-    params['desired_mrp'] = [0.0, 1.2, 0.9]                                  # |sigma| = 1.5
+    params['initial_mrp'] = shadow(np.array([0.0, 0.0, 0.25])).tolist()  # [0, 0, -4]
+    params['desired_mrp'] = [0.0, 1.2, 0.9]  # |sigma| = 1.5
     path = tmp_path / 's.yaml'
     path.write_text(_dump(params))
     sc = load_scenario(path)
@@ -233,6 +273,7 @@ def test_error_string_format(tmp_path):
 
 # --- malformed inputs -----------------------------------------------------------------
 
+
 def _dump(params):
     return yaml.safe_dump({'/**': {'ros__parameters': params}}, sort_keys=False)
 
@@ -245,6 +286,7 @@ def _set(dotted, value):
             node = node.setdefault(p, {})
         node[leaf] = value
         return params
+
     return mutate
 
 
@@ -256,6 +298,7 @@ def _delete(dotted):
             node = node[p]
         del node[leaf]
         return params
+
     return mutate
 
 
@@ -277,78 +320,238 @@ MALFORMED = [
     # id, transform of the base params (dict -> dumped, or raw text), key, reason substring
     ('missing_key', _delete('sim_time_s'), 'sim_time_s', 'missing required key'),
     ('missing_inertia', _delete('inertia_kgm2'), 'inertia_kgm2', 'missing required key'),
-    ('int_where_float', _set('dt_s', 1), 'dt_s', 'expected float, got integer 1; write it as a YAML float, e.g. 1.0'),
-    ('int_in_float_array', _set('inertia_kgm2', [10, 0, 0, 0, 10, 0, 0, 0, 10]),
-     'inertia_kgm2', 'element 0: expected float, got integer 10'),
-    ('mixed_array', _set('initial_mrp', [0.0, 0, 0.25]), 'initial_mrp', 'element 1: expected float, got integer 0'),
-    ('string_where_float', _set('sim_time_s', 'long'), 'sim_time_s', "expected float, got string 'long'"),
-    ('exponent_without_dot', _append('arrival.rate_tol_rad_s: 1e-3'), 'arrival.rate_tol_rad_s',
-     'e.g. 0.001'),
-    ('bool_where_float', _set('controller.kp_over_j', True), 'controller.kp_over_j', 'expected float, got boolean'),
-    ('nan', _set('initial_mrp', [float('nan'), 0.0, 0.25]), 'initial_mrp', 'element 0: must be finite'),
+    (
+        'int_where_float',
+        _set('dt_s', 1),
+        'dt_s',
+        'expected float, got integer 1; write it as a YAML float, e.g. 1.0',
+    ),
+    (
+        'int_in_float_array',
+        _set('inertia_kgm2', [10, 0, 0, 0, 10, 0, 0, 0, 10]),
+        'inertia_kgm2',
+        'element 0: expected float, got integer 10',
+    ),
+    (
+        'mixed_array',
+        _set('initial_mrp', [0.0, 0, 0.25]),
+        'initial_mrp',
+        'element 1: expected float, got integer 0',
+    ),
+    (
+        'string_where_float',
+        _set('sim_time_s', 'long'),
+        'sim_time_s',
+        "expected float, got string 'long'",
+    ),
+    (
+        'exponent_without_dot',
+        _append('arrival.rate_tol_rad_s: 1e-3'),
+        'arrival.rate_tol_rad_s',
+        'e.g. 0.001',
+    ),
+    (
+        'bool_where_float',
+        _set('controller.kp_over_j', True),
+        'controller.kp_over_j',
+        'expected float, got boolean',
+    ),
+    (
+        'nan',
+        _set('initial_mrp', [float('nan'), 0.0, 0.25]),
+        'initial_mrp',
+        'element 0: must be finite',
+    ),
     ('inf', _set('sim_time_s', float('inf')), 'sim_time_s', 'must be finite'),
-    ('wrong_length', _set('desired_mrp', [0.0, -0.2]), 'desired_mrp', 'expected a list of 3 floats, got 2'),
-    ('scalar_where_vector', _set('initial_rate_rad_s', 0.0), 'initial_rate_rad_s', 'expected a list of 3 floats'),
-    ('zero_boresight', _set(f'{_ST}.boresight_body', [0.0, 0.0, 0.0]), f'{_ST}.boresight_body', 'non-zero'),
-    ('boresight_norm_2', _set(f'{_ST}.boresight_body', [2.0, 0.0, 0.0]), f'{_ST}.boresight_body', 'norm 2'),
-    ('direction_norm', _set('bright_objects.object_2.direction_inertial', [-1.1, 0.0, 0.0]),
-     'bright_objects.object_2.direction_inertial', 'unit vector'),
+    (
+        'wrong_length',
+        _set('desired_mrp', [0.0, -0.2]),
+        'desired_mrp',
+        'expected a list of 3 floats, got 2',
+    ),
+    (
+        'scalar_where_vector',
+        _set('initial_rate_rad_s', 0.0),
+        'initial_rate_rad_s',
+        'expected a list of 3 floats',
+    ),
+    (
+        'zero_boresight',
+        _set(f'{_ST}.boresight_body', [0.0, 0.0, 0.0]),
+        f'{_ST}.boresight_body',
+        'non-zero',
+    ),
+    (
+        'boresight_norm_2',
+        _set(f'{_ST}.boresight_body', [2.0, 0.0, 0.0]),
+        f'{_ST}.boresight_body',
+        'norm 2',
+    ),
+    (
+        'direction_norm',
+        _set('bright_objects.object_2.direction_inertial', [-1.1, 0.0, 0.0]),
+        'bright_objects.object_2.direction_inertial',
+        'unit vector',
+    ),
     ('beta_0', _set(f'{_ST}.half_angle_deg', 0.0), f'{_ST}.half_angle_deg', 'must be in (0, 90)'),
     ('beta_90', _set(f'{_ST}.half_angle_deg', 90.0), f'{_ST}.half_angle_deg', 'must be in (0, 90)'),
     ('beta_negative', _set(f'{_ST}.half_angle_deg', -5.0), f'{_ST}.half_angle_deg', 'got -5.0'),
-    ('non_symmetric_inertia', _set('inertia_kgm2', [10.0, 1.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 10.0]),
-     'inertia_kgm2', 'symmetric'),
-    ('non_pd_inertia', _set('inertia_kgm2', _diag(10.0, 10.0, -1.0)), 'inertia_kgm2', 'positive definite'),
-    ('triangle_inequality', _set('inertia_kgm2', _diag(1.0, 1.0, 10.0)), 'inertia_kgm2', 'triangle inequality'),
+    (
+        'non_symmetric_inertia',
+        _set('inertia_kgm2', [10.0, 1.0, 0.0, 0.0, 10.0, 0.0, 0.0, 0.0, 10.0]),
+        'inertia_kgm2',
+        'symmetric',
+    ),
+    (
+        'non_pd_inertia',
+        _set('inertia_kgm2', _diag(10.0, 10.0, -1.0)),
+        'inertia_kgm2',
+        'positive definite',
+    ),
+    (
+        'triangle_inequality',
+        _set('inertia_kgm2', _diag(1.0, 1.0, 10.0)),
+        'inertia_kgm2',
+        'triangle inequality',
+    ),
     ('dt_zero', _set('dt_s', 0.0), 'dt_s', 'must be > 0'),
     ('dt_negative', _set('dt_s', -0.1), 'dt_s', 'must be > 0'),
     ('sim_time_below_dt', _set('sim_time_s', 0.05), 'sim_time_s', 'must be >= dt_s'),
-    ('start_inside_cone', _set('initial_mrp', [0.0, 0.0, 0.0]), 'initial_mrp',
-     "inside the keep-out cone of instrument 'star_tracker' and bright object 'object_3' (margin -3.3 deg)"),
-    ('goal_inside_cone', _set('desired_mrp', [0.0, 0.0, 0.0]), 'desired_mrp',
-     "inside the keep-out cone of instrument 'star_tracker' and bright object 'object_3'"),
-    ('yaml_syntax_error', _raw('/**:\n  ros__parameters:\n    sim_time_s: [150.0, 1.0\n'), None,
-     'YAML syntax error'),
-    ('yaml_duplicate_key', _raw('/**:\n  ros__parameters:\n    dt_s: 0.1\n    dt_s: 0.2\n'), None,
-     "invalid YAML: duplicate key 'dt_s'"),
-    ('unknown_key_with_suggestion', _set('sim_time', 150.0), 'sim_time', "unknown key; did you mean 'sim_time_s'?"),
-    ('unknown_planner_key', _set('planner.gama_deg', 60.0), 'planner.gama_deg', "did you mean 'planner.gamma_deg'?"),
-    ('unknown_instrument_key', _set(f'{_ST}.half_angle', 20.0), f'{_ST}.half_angle',
-     f"did you mean '{_ST}.half_angle_deg'?"),
-    ('instrument_not_listed', _set('instruments.camera.half_angle_deg', 15.0),
-     'instruments.camera.half_angle_deg', "unknown key; 'camera' is not listed in instruments.names"),
+    (
+        'start_inside_cone',
+        _set('initial_mrp', [0.0, 0.0, 0.0]),
+        'initial_mrp',
+        "inside the keep-out cone of instrument 'star_tracker' and bright object 'object_3' (margin -3.3 deg)",
+    ),
+    (
+        'goal_inside_cone',
+        _set('desired_mrp', [0.0, 0.0, 0.0]),
+        'desired_mrp',
+        "inside the keep-out cone of instrument 'star_tracker' and bright object 'object_3'",
+    ),
+    (
+        'yaml_syntax_error',
+        _raw('/**:\n  ros__parameters:\n    sim_time_s: [150.0, 1.0\n'),
+        None,
+        'YAML syntax error',
+    ),
+    (
+        'yaml_duplicate_key',
+        _raw('/**:\n  ros__parameters:\n    dt_s: 0.1\n    dt_s: 0.2\n'),
+        None,
+        "invalid YAML: duplicate key 'dt_s'",
+    ),
+    (
+        'unknown_key_with_suggestion',
+        _set('sim_time', 150.0),
+        'sim_time',
+        "unknown key; did you mean 'sim_time_s'?",
+    ),
+    (
+        'unknown_planner_key',
+        _set('planner.gama_deg', 60.0),
+        'planner.gama_deg',
+        "did you mean 'planner.gamma_deg'?",
+    ),
+    (
+        'unknown_instrument_key',
+        _set(f'{_ST}.half_angle', 20.0),
+        f'{_ST}.half_angle',
+        f"did you mean '{_ST}.half_angle_deg'?",
+    ),
+    (
+        'instrument_not_listed',
+        _set('instruments.camera.half_angle_deg', 15.0),
+        'instruments.camera.half_angle_deg',
+        "unknown key; 'camera' is not listed in instruments.names",
+    ),
     ('empty_file', _raw(''), None, 'file is empty'),
     ('comment_only_file', _raw('# nothing here\n'), None, 'file is empty'),
-    ('wrong_top_level', lambda p: yaml.safe_dump({'ros__parameters': p}), None, 'top level must be exactly'),
-    ('node_name_top_level', lambda p: yaml.safe_dump({'planner_node': {'ros__parameters': p}}), None,
-     'top level must be exactly'),
-    ('instrument_without_boresight', lambda p: _set('instruments.camera.half_angle_deg', 15.0)(
-        _set('instruments.names', ['star_tracker', 'camera'])(p)),
-     'instruments.camera.boresight_body', 'missing required key'),
-    ('duplicate_instrument_names', _set('instruments.names', ['star_tracker', 'star_tracker']),
-     'instruments.names', "duplicate names ['star_tracker']"),
+    (
+        'wrong_top_level',
+        lambda p: yaml.safe_dump({'ros__parameters': p}),
+        None,
+        'top level must be exactly',
+    ),
+    (
+        'node_name_top_level',
+        lambda p: yaml.safe_dump({'planner_node': {'ros__parameters': p}}),
+        None,
+        'top level must be exactly',
+    ),
+    (
+        'instrument_without_boresight',
+        lambda p: _set('instruments.camera.half_angle_deg', 15.0)(
+            _set('instruments.names', ['star_tracker', 'camera'])(p)
+        ),
+        'instruments.camera.boresight_body',
+        'missing required key',
+    ),
+    (
+        'duplicate_instrument_names',
+        _set('instruments.names', ['star_tracker', 'star_tracker']),
+        'instruments.names',
+        "duplicate names ['star_tracker']",
+    ),
     ('empty_instrument_list', _set('instruments.names', []), 'instruments.names', 'non-empty list'),
-    ('bad_instrument_name', _set('instruments.names', ['star-tracker']), 'instruments.names',
-     "invalid name 'star-tracker'"),
+    (
+        'bad_instrument_name',
+        _set('instruments.names', ['star-tracker']),
+        'instruments.names',
+        "invalid name 'star-tracker'",
+    ),
     ('bad_scenario_name', _set('scenario_name', '1st_case'), 'scenario_name', 'invalid name'),
-    ('unknown_variant', _set('planner.variant', 'fast'), 'planner.variant', "must be one of ['improved', 'paper']"),
-    ('bad_direction_axis', _set('planner.direction_axis', 'x'), 'planner.direction_axis',
-     "must be one of ['goal_plane', 'paper']"),
-    ('negative_safety_margin', _set('planner.safety_margin_deg', -1.0), 'planner.safety_margin_deg',
-     'must be in [0, 45)'),
+    (
+        'unknown_variant',
+        _set('planner.variant', 'fast'),
+        'planner.variant',
+        "must be one of ['improved', 'paper']",
+    ),
+    (
+        'bad_direction_axis',
+        _set('planner.direction_axis', 'x'),
+        'planner.direction_axis',
+        "must be one of ['goal_plane', 'paper']",
+    ),
+    (
+        'negative_safety_margin',
+        _set('planner.safety_margin_deg', -1.0),
+        'planner.safety_margin_deg',
+        'must be in [0, 45)',
+    ),
     ('gamma_180', _set('planner.gamma_deg', 180.0), 'planner.gamma_deg', 'must be in [0, 180)'),
-    ('obstacle_samples_float', _set('planner.obstacle_samples', 180.0), 'planner.obstacle_samples',
-     'expected integer, got float'),
-    ('obstacle_samples_small', _set('planner.obstacle_samples', 8), 'planner.obstacle_samples', 'must be in [16, 100000]'),
+    (
+        'obstacle_samples_float',
+        _set('planner.obstacle_samples', 180.0),
+        'planner.obstacle_samples',
+        'expected integer, got float',
+    ),
+    (
+        'obstacle_samples_small',
+        _set('planner.obstacle_samples', 8),
+        'planner.obstacle_samples',
+        'must be in [16, 100000]',
+    ),
     ('negative_gain', _set('controller.kd_over_j', -3.1), 'controller.kd_over_j', 'must be > 0'),
-    ('fis_path_missing', _set('planner.fis_repulsive', 'data/none.yaml'), 'planner.fis_repulsive', 'does not exist'),
+    (
+        'fis_path_missing',
+        _set('planner.fis_repulsive', 'data/none.yaml'),
+        'planner.fis_repulsive',
+        'does not exist',
+    ),
     ('fis_empty', _set('planner.fis_attractive', ''), 'planner.fis_attractive', 'non-empty string'),
-    ('arrival_tol_zero', _set('arrival.attitude_tol_deg', 0.0), 'arrival.attitude_tol_deg', 'must be > 0'),
+    (
+        'arrival_tol_zero',
+        _set('arrival.attitude_tol_deg', 0.0),
+        'arrival.attitude_tol_deg',
+        'must be > 0',
+    ),
 ]
 
 
-@pytest.mark.parametrize('transform,key,reason', [c[1:] for c in MALFORMED],
-                         ids=[c[0] for c in MALFORMED])
+@pytest.mark.parametrize(
+    'transform,key,reason', [c[1:] for c in MALFORMED], ids=[c[0] for c in MALFORMED]
+)
 def test_malformed_scenario_is_refused(tmp_path, transform, key, reason):
     out = transform(copy.deepcopy(_base_params()))
     path = tmp_path / 'scenario.yaml'

@@ -27,10 +27,10 @@ from attitude_core.sim_stepper import SETTLE_S, Action, Decision, SimStepper, St
 ROOT = Path(__file__).resolve().parents[1]
 DT = 0.1
 DT_NS = 100_000_000
-J = np.array([[12.0, 0.4, -0.2], [0.4, 9.0, 0.3], [-0.2, 0.3, 7.0]])   # not diagonal
+J = np.array([[12.0, 0.4, -0.2], [0.4, 9.0, 0.3], [-0.2, 0.3, 7.0]])  # not diagonal
 SIGMA0 = np.array([0.1, -0.2, 0.3])
 OMEGA0 = np.array([0.02, -0.01, 0.03])
-T0 = 1000.0            # wall time the stepper is created, s
+T0 = 1000.0  # wall time the stepper is created, s
 EXACT = 1e-15
 
 
@@ -46,7 +46,7 @@ def start(stepper: SimStepper, now: float = T0) -> tuple[Decision, float]:
     """Connect the graph at ``now`` and keep it connected until START; returns the START
     decision and its wall time."""
     assert stepper.poll_graph(now, True).action is Action.WAIT
-    t = now + math.ceil((SETTLE_S + 0.01) * 4) / 4   # a multiple of 0.25 s: exact sums
+    t = now + math.ceil((SETTLE_S + 0.01) * 4) / 4  # a multiple of 0.25 s: exact sums
     d = stepper.poll_graph(t, True)
     assert d.action is Action.START
     return d, t
@@ -70,9 +70,13 @@ def torques(n: int) -> list[np.ndarray]:
 
 # --- configuration ---------------------------------------------------------------------
 
+
 def test_config_refuses_an_unknown_time_mode():
-    with pytest.raises(ValueError, match=r"time_mode must be one of \['lockstep', 'realtime'\], "
-                                         r"got 'wallclock'"):
+    with pytest.raises(
+        ValueError,
+        match=r"time_mode must be one of \['lockstep', 'realtime'\], "
+        r"got 'wallclock'",
+    ):
         StepperConfig(DT, 10, time_mode="wallclock")
     for mode in TIME_MODES:
         assert StepperConfig(DT, 10, time_mode=mode).time_mode == mode
@@ -94,13 +98,25 @@ def test_config_from_the_simulator_parameter_table_defaults():
 
 
 def test_config_from_given_parameter_values():
-    given = {"time_mode": REALTIME, "lockstep.resend_period_s": 0.3,
-             "lockstep.torque_timeout_s": 4.0, "lockstep.max_held_steps": 7,
-             "realtime.torque_stale_s": 1.5, "startup_timeout_s": 12.0}
+    given = {
+        "time_mode": REALTIME,
+        "lockstep.resend_period_s": 0.3,
+        "lockstep.torque_timeout_s": 4.0,
+        "lockstep.max_held_steps": 7,
+        "realtime.torque_stale_s": 1.5,
+        "startup_timeout_s": 12.0,
+    }
     cfg = StepperConfig.from_parameters(values_from(SIMULATOR.own, given, "test"), DT, 9)
-    assert cfg == StepperConfig(DT, 9, time_mode=REALTIME, resend_period_s=0.3,
-                                torque_timeout_s=4.0, max_held_steps=7, torque_stale_s=1.5,
-                                startup_timeout_s=12.0)
+    assert cfg == StepperConfig(
+        DT,
+        9,
+        time_mode=REALTIME,
+        resend_period_s=0.3,
+        torque_timeout_s=4.0,
+        max_held_steps=7,
+        torque_stale_s=1.5,
+        startup_timeout_s=12.0,
+    )
 
 
 def test_from_scenario_takes_the_scenario_body_and_step():
@@ -122,9 +138,10 @@ def test_dt_ns_is_the_rounded_step():
 
 # --- start-up ---------------------------------------------------------------------------
 
+
 def test_graph_never_ready_fails_after_startup_timeout():
     s = make(startup_timeout_s=5.0)
-    for t in (T0, T0 + 2.5, T0 + 5.0):          # not yet *after* the timeout
+    for t in (T0, T0 + 2.5, T0 + 5.0):  # not yet *after* the timeout
         assert s.poll_graph(t, False).action is Action.WAIT
     d = s.poll_graph(T0 + 5.01, False)
     assert d.action is Action.FAIL and d.exit_code == 1
@@ -148,7 +165,7 @@ def test_ready_must_persist_settle_time_and_a_drop_resets_it():
     s = make()
     assert s.poll_graph(T0, True).action is Action.WAIT
     assert s.poll_graph(T0 + 0.5 * SETTLE_S, True).action is Action.WAIT
-    assert s.poll_graph(T0 + 0.75 * SETTLE_S, False).action is Action.WAIT   # drop
+    assert s.poll_graph(T0 + 0.75 * SETTLE_S, False).action is Action.WAIT  # drop
     t1 = T0 + 0.8 * SETTLE_S
     assert s.poll_graph(t1, True).action is Action.WAIT
     # Past SETTLE_S since the first "ready", but not since the drop: still waiting.
@@ -195,6 +212,7 @@ def test_realtime_start_publishes_no_state():
 
 # --- lockstep ---------------------------------------------------------------------------
 
+
 def test_lockstep_torque_with_the_wrong_stamp_is_ignored():
     s = make()
     _, t = start(s)
@@ -202,7 +220,7 @@ def test_lockstep_torque_with_the_wrong_stamp_is_ignored():
         d = s.on_torque(t + 0.01, stamp, np.array([1.0, 2.0, 3.0]))
         assert d.action is Action.IGNORE and d.state is None and d.applied is None
     assert s.k == 0 and s.rejected == 0 and s.waiting_stamp == 0
-    ref = make_body()                                     # the body did not move
+    ref = make_body()  # the body did not move
     np.testing.assert_array_equal(s.body.sigma_bn, ref.sigma_bn)
     np.testing.assert_array_equal(s.body.omega_b, ref.omega_b)
 
@@ -218,7 +236,7 @@ def test_lockstep_matching_torque_advances_like_an_independent_rigid_body():
         ref.step(u, DT)
         assert_state(d.state, k + 1, (k + 1) * DT_NS, (k + 1) * DT_NS, ref)
         assert_torque(d.applied, u)
-        assert d.applied_stamp_ns == k * DT_NS       # stamped with the previous state
+        assert d.applied_stamp_ns == k * DT_NS  # stamped with the previous state
         assert s.waiting_stamp == (k + 1) * DT_NS
     # Physics: the torque changed the motion, the free body would be elsewhere.
     free = make_body()
@@ -245,7 +263,7 @@ def test_lockstep_resend_after_resend_period():
     d = s.on_timer(t + 0.25)
     assert d.action is Action.RESEND and d.resend and d.state is None and d.applied is None
     assert s.resends == 1
-    assert s.on_timer(t + 0.4).action is Action.NONE        # 0.15 s since the re-send
+    assert s.on_timer(t + 0.4).action is Action.NONE  # 0.15 s since the re-send
     assert s.on_timer(t + 0.5).action is Action.RESEND
     assert s.resends == 2
     assert s.k == 0 and s.timeouts == 0 and s.waiting_stamp == 0
@@ -270,16 +288,22 @@ def test_lockstep_hold_then_zero_then_torque_received_again():
         t += 2.01
         d = s.on_timer(t)
         assert d.action is Action.HOLD
-        assert d.logs == [("warning", f"no torque for step {k} after 2.0 s; holding the last "
-                                      f"torque {u0.tolist()} N m")]
+        assert d.logs == [
+            (
+                "warning",
+                f"no torque for step {k} after 2.0 s; holding the last torque {u0.tolist()} N m",
+            )
+        ]
         ref.step(u0, DT)
         assert_torque(d.applied, u0)
         assert d.applied_stamp_ns == k * DT_NS
         assert_state(d.state, k + 1, (k + 1) * DT_NS, (k + 1) * DT_NS, ref)
         assert not s.stale
     # ...then the torque is stale: zero torque, the error logged once.
-    for k, logs in ((3, [("error", "torque is stale: applying zero torque until a controller "
-                                   "answers again")]), (4, [])):
+    for k, logs in (
+        (3, [("error", "torque is stale: applying zero torque until a controller answers again")]),
+        (4, []),
+    ):
         t += 2.01
         d = s.on_timer(t)
         assert d.action is Action.ZERO and d.logs == logs
@@ -317,7 +341,7 @@ def test_lockstep_finish_after_exactly_n_steps():
     n = 3
     s = make(n_steps=n, resend_period_s=0.2)
     _, t = start(s)
-    assert s.on_timer(t + 0.25).action is Action.RESEND     # counted in the final log
+    assert s.on_timer(t + 0.25).action is Action.RESEND  # counted in the final log
     ref = make_body()
     us = torques(n + 1)
     for k in range(n):
@@ -328,7 +352,7 @@ def test_lockstep_finish_after_exactly_n_steps():
     assert s.on_torque(t + 5.0, n * DT_NS, [np.nan, 0.0, 0.0]).action is Action.REJECT
     d = s.on_torque(t + 5.5, n * DT_NS, us[n])
     assert d.action is Action.FINISH and d.exit_code == 0 and d.state is None
-    assert_torque(d.applied, us[n])                           # the final applied torque
+    assert_torque(d.applied, us[n])  # the final applied torque
     assert d.applied_stamp_ns == n * DT_NS
     assert len(d.logs) == 1 and d.logs[0][0] == "info"
     text = d.logs[0][1]
@@ -368,7 +392,7 @@ def test_lockstep_non_finite_torque_is_rejected_and_counted():
         assert d.action is Action.REJECT and d.state is None
         assert d.reason == f"torque has a non-finite element {list(map(float, bad))}"
         assert s.rejected == n
-    assert s.k == 0 and s.waiting_stamp == 0       # still waiting for step 0
+    assert s.k == 0 and s.waiting_stamp == 0  # still waiting for step 0
     assert s.on_torque(t, 0, np.zeros(3)).action is Action.ADVANCE
 
 
@@ -383,11 +407,12 @@ def test_lockstep_deadline_without_a_waiting_state_does_nothing():
 
 # --- real time --------------------------------------------------------------------------
 
+
 def test_realtime_ticks_step_with_the_latest_torque():
     s = make(n_steps=10, time_mode=REALTIME, torque_stale_s=0.5)
     _, t = start(s)
     ref = make_body()
-    clock = 7_000_000_123   # node clock, ns: the stamp of the states
+    clock = 7_000_000_123  # node clock, ns: the stamp of the states
     d = s.on_timer(t, clock)
     assert d.action is Action.ADVANCE and d.applied is None and d.applied_stamp_ns is None
     assert_state(d.state, 0, clock, 0, ref)
@@ -420,7 +445,7 @@ def test_realtime_older_torque_is_rejected():
     assert d.action is Action.REJECT
     assert d.reason == "stamp 499 ns is older than the applied torque's 500 ns"
     assert s.rejected == 1
-    assert s.on_torque(t + 0.02, 500, u_new).action is Action.ACCEPT   # same stamp: fine
+    assert s.on_torque(t + 0.02, 500, u_new).action is Action.ACCEPT  # same stamp: fine
     s.on_timer(t + 0.03, 1)
     d = s.on_timer(t + 0.04, 2)
     assert_torque(d.applied, u_new)
@@ -445,14 +470,15 @@ def test_realtime_stale_torque_applies_zero_until_a_torque_arrives():
     u, u2 = torques(2)
     assert s.on_timer(t, 0).action is Action.ADVANCE
     s.on_torque(t, 0, u)
-    d = s.on_timer(t + 0.5, 1)                 # exactly torque_stale_s old: still fresh
+    d = s.on_timer(t + 0.5, 1)  # exactly torque_stale_s old: still fresh
     assert d.action is Action.ADVANCE
     ref.step(u, DT)
     assert_torque(d.applied, u)
     d = s.on_timer(t + 0.51, 2)
     assert d.action is Action.ZERO
-    assert d.logs == [("error", "torque is stale: applying zero torque until a controller "
-                                "answers again")]
+    assert d.logs == [
+        ("error", "torque is stale: applying zero torque until a controller answers again")
+    ]
     ref.step(np.zeros(3), DT)
     assert_torque(d.applied, np.zeros(3))
     assert_state(d.state, 2, 2, 2 * DT_NS, ref)
@@ -476,7 +502,7 @@ def test_realtime_finish_after_n_steps_plus_one_ticks():
     ref = make_body()
     u = torques(1)[0]
     s.on_torque(t, 0, u)
-    for k in range(n + 1):                     # states 0..n: n steps of the body
+    for k in range(n + 1):  # states 0..n: n steps of the body
         d = s.on_timer(t + 0.01 * k, 100 + k)
         assert d.action is Action.ADVANCE and d.state.k == k
         if k:

@@ -23,18 +23,22 @@ ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
 TOPIC_NAMES = {topic.name for topic in t.TOPICS}
 # Constants of attitude_core.topics that name a contract topic (c.ATTITUDE, ...).
-TOPIC_CONSTANTS = {k: v for k, v in vars(t).items()
-                   if k.isupper() and isinstance(v, str) and v in TOPIC_NAMES}
+TOPIC_CONSTANTS = {
+    k: v for k, v in vars(t).items() if k.isupper() and isinstance(v, str) and v in TOPIC_NAMES
+}
 
 
 # --- status ----------------------------------------------------------------------------
 
+
 def test_planner_statuses_codes_levels_and_ends_slew():
     table = [(s.value, s.code, s.level, s.ends_slew) for s in PlannerStatus]
-    assert table == [("tracking", 0, DiagnosticLevel.OK, False),
-                     ("arrived", 1, DiagnosticLevel.OK, True),
-                     ("stuck", 2, DiagnosticLevel.WARN, True),
-                     ("infeasible", 3, DiagnosticLevel.ERROR, True)]
+    assert table == [
+        ("tracking", 0, DiagnosticLevel.OK, False),
+        ("arrived", 1, DiagnosticLevel.OK, True),
+        ("stuck", 2, DiagnosticLevel.WARN, True),
+        ("infeasible", 3, DiagnosticLevel.ERROR, True),
+    ]
 
 
 def test_status_is_the_published_string():
@@ -43,12 +47,20 @@ def test_status_is_the_published_string():
     assert f"{PlannerStatus.TRACKING}" == "tracking"
     with pytest.raises(ValueError):
         PlannerStatus("ARRIVED")
+    for status in PlannerStatus:
+        assert PlannerStatus.parse(status.value) is status
+    with pytest.raises(ValueError, match="is not a planner status"):
+        PlannerStatus.parse("ARRIVED")
 
 
 def test_diagnostic_levels_are_the_message_byte_values():
     # diagnostic_msgs/DiagnosticStatus: OK=0 WARN=1 ERROR=2 STALE=3
     assert [(lv.name, int(lv)) for lv in DiagnosticLevel] == [
-        ("OK", 0), ("WARN", 1), ("ERROR", 2), ("STALE", 3)]
+        ("OK", 0),
+        ("WARN", 1),
+        ("ERROR", 2),
+        ("STALE", 3),
+    ]
 
 
 def test_from_code_inverts_code():
@@ -62,10 +74,14 @@ def test_from_code_inverts_code():
 
 
 def test_ending_statuses_in_code_order():
-    assert PlannerStatus.ending() == (PlannerStatus.ARRIVED, PlannerStatus.STUCK,
-                                      PlannerStatus.INFEASIBLE)
-    assert [s.code for s in PlannerStatus.ending()] == sorted(s.code for s in PlannerStatus
-                                                              if s.ends_slew)
+    assert PlannerStatus.ending() == (
+        PlannerStatus.ARRIVED,
+        PlannerStatus.STUCK,
+        PlannerStatus.INFEASIBLE,
+    )
+    assert [s.code for s in PlannerStatus.ending()] == sorted(
+        s.code for s in PlannerStatus if s.ends_slew
+    )
 
 
 # --- diagnostics -----------------------------------------------------------------------
@@ -73,8 +89,15 @@ def test_ending_statuses_in_code_order():
 AWKWARD = [0.1 + 0.2, 1e-300, 5e-324, -0.0, 1.0 / 3.0, 123456789.123456789, -2.5e17]
 
 
-def diag(status=PlannerStatus.TRACKING, step_time_s=1.234e-4, distance=0.1 + 0.2,
-         margin=1.0 / 3.0, m_a=5e-324, m_r=-0.0, rejected=7) -> PlannerDiagnostics:
+def diag(
+    status=PlannerStatus.TRACKING,
+    step_time_s=1.234e-4,
+    distance=0.1 + 0.2,
+    margin=1.0 / 3.0,
+    m_a=5e-324,
+    m_r=-0.0,
+    rejected=7,
+) -> PlannerDiagnostics:
     return PlannerDiagnostics(status, step_time_s, distance, margin, m_a, m_r, rejected)
 
 
@@ -88,11 +111,18 @@ def same_float(a: float, b: float) -> bool:
 def test_diagnostics_values_are_in_keys_order():
     values = diag().values()
     assert [k for k, _ in values] == list(KEYS)
-    assert KEYS == ("status", "step_time_us", "obstacle_distance_mrp", "keep_out_margin_deg",
-                    "m_a", "m_r", "rejected_messages")
+    assert KEYS == (
+        "status",
+        "step_time_us",
+        "obstacle_distance_mrp",
+        "keep_out_margin_deg",
+        "m_a",
+        "m_r",
+        "rejected_messages",
+    )
     assert all(isinstance(v, str) for _, v in values)
     assert dict(values)["status"] == "tracking"
-    assert dict(values)["step_time_us"] == "123.400"        # microseconds, 3 decimals
+    assert dict(values)["step_time_us"] == "123.400"  # microseconds, 3 decimals
     assert dict(values)["rejected_messages"] == "7"
 
 
@@ -111,7 +141,7 @@ def test_diagnostics_step_time_to_the_nanosecond():
     d = diag(step_time_s=0.0123456789)
     back = PlannerDiagnostics.from_values(dict(d.values()))
     assert back.step_time_s == pytest.approx(0.0123456789, abs=0.5e-9)
-    assert back.step_time_s != 0.0123456789                 # 3 decimals of a microsecond
+    assert back.step_time_s != 0.0123456789  # 3 decimals of a microsecond
 
 
 def test_diagnostics_non_finite_values_round_trip():
@@ -145,6 +175,7 @@ def test_diagnostics_unknown_status_raises():
 
 
 # --- node graph: the table -------------------------------------------------------------
+
 
 def test_nodes_start_order_and_roles():
     assert [n.role for n in g.NODES] == ["recorder", "planner", "controller", "simulator"]
@@ -216,7 +247,7 @@ def test_every_loop_subscription_is_published():
         for name in spec.subscribes:
             assert name in published or name in state, (spec.role, name)
             publishers = [n for n in g.NODES if name in n.publishes]
-            assert spec not in publishers, (spec.role, name)   # no node feeds itself
+            assert spec not in publishers, (spec.role, name)  # no node feeds itself
 
 
 def test_recorder_records_every_topic_and_publishes_nothing():
@@ -232,8 +263,13 @@ def test_state_listeners():
 @pytest.mark.parametrize("e", [1, 2, 3, 4])
 def test_readiness_rule(e):
     r = g.readiness(e)
-    assert r.min_subscribers == {t.ATTITUDE: e, t.ANGULAR_VELOCITY: e - 1,
-                                 t.TARGET_MRP: e - 1, t.TARGET_RATE: e - 1, t.TORQUE: e - 1}
+    assert r.min_subscribers == {
+        t.ATTITUDE: e,
+        t.ANGULAR_VELOCITY: e - 1,
+        t.TARGET_MRP: e - 1,
+        t.TARGET_RATE: e - 1,
+        t.TORQUE: e - 1,
+    }
     assert r.min_publishers == {t.TARGET_MRP: 1, t.TARGET_RATE: 1, t.TORQUE: 1}
 
 
@@ -279,31 +315,61 @@ def _topics_of_argument(arg: ast.AST, loops: list[ast.For]) -> set[str]:
                 names = _topic_constants_in(loop.iter)
                 if names:
                     return names
-    raise AssertionError(f"line {arg.lineno}: cannot resolve the topic of "
-                         f"{ast.unparse(arg)!r}")
+    raise AssertionError(f"line {arg.lineno}: cannot resolve the topic of {ast.unparse(arg)!r}")
 
 
 def endpoints(source: str) -> dict[str, set[str]]:
     """``{"sub": topics, "pub": topics}`` of the create_subscription / create_publisher
-    calls in a node source (also through an alias such as ``pub = self.create_publisher``)."""
+    calls in a node source, also through an alias: ``pub = self.create_publisher``, or
+    ``pub = lambda kind, name: self.create_publisher(kind, name, ...)`` (the topic is then
+    the lambda's argument at the position the endpoint call takes it from)."""
     tree = ast.parse(source)
-    aliases = {}
+    aliases: dict[str, str] = {}
+    topic_index: dict[str, int] = {}
     for node in ast.walk(tree):
-        if (isinstance(node, ast.Assign) and isinstance(node.value, ast.Attribute)
-                and node.value.attr in ENDPOINT_METHODS):
-            for target in node.targets:
-                if isinstance(target, ast.Name):
-                    aliases[target.id] = ENDPOINT_METHODS[node.value.attr]
+        if not isinstance(node, ast.Assign):
+            continue
+        value, kind, index = node.value, None, 1
+        if isinstance(value, ast.Attribute) and value.attr in ENDPOINT_METHODS:
+            kind = ENDPOINT_METHODS[value.attr]
+        elif (
+            isinstance(value, ast.Lambda)
+            and isinstance(value.body, ast.Call)
+            and isinstance(value.body.func, ast.Attribute)
+            and value.body.func.attr in ENDPOINT_METHODS
+            and len(value.body.args) > 1
+            and isinstance(value.body.args[1], ast.Name)
+        ):
+            params = [a.arg for a in value.args.args]
+            kind = ENDPOINT_METHODS[value.body.func.attr]
+            index = params.index(value.body.args[1].id)
+        if kind is None:
+            continue
+        for target in node.targets:
+            if isinstance(target, ast.Name):
+                aliases[target.id] = kind
+                topic_index[target.id] = index
     found: dict[str, set[str]] = {"sub": set(), "pub": set()}
 
     def visit(node: ast.AST, loops: list[ast.For]) -> None:
+        if isinstance(node, ast.Lambda):
+            return  # an alias's body: its calls are counted where the alias is called
         if isinstance(node, ast.Call):
             func = node.func
-            kind = (ENDPOINT_METHODS.get(func.attr) if isinstance(func, ast.Attribute)
-                    else aliases.get(func.id) if isinstance(func, ast.Name) else None)
+            kind = (
+                ENDPOINT_METHODS.get(func.attr)
+                if isinstance(func, ast.Attribute)
+                else aliases.get(func.id)
+                if isinstance(func, ast.Name)
+                else None
+            )
             if kind is not None:
-                topic = (node.args[1] if len(node.args) > 1 else
-                         next((kw.value for kw in node.keywords if kw.arg == "topic"), None))
+                index = topic_index.get(func.id, 1) if isinstance(func, ast.Name) else 1
+                topic = (
+                    node.args[index]
+                    if len(node.args) > index
+                    else next((kw.value for kw in node.keywords if kw.arg == "topic"), None)
+                )
                 assert topic is not None, f"line {node.lineno}: an endpoint without a topic"
                 found[kind] |= _topics_of_argument(topic, loops)
         inner = loops + [node] if isinstance(node, ast.For) else loops
@@ -328,23 +394,41 @@ def test_node_sources_take_their_name_from_the_table(spec):
     assert f"node_graph.{spec.role.upper()}.parameters" in text
 
 
-@pytest.mark.parametrize("source, expected", [
-    ("self.create_publisher(A, c.TARGET_MRP, q)", {"sub": set(), "pub": {t.TARGET_MRP}}),
-    ("pub = self.create_publisher\npub(A, c.TARGET_RATE, q)",
-     {"sub": set(), "pub": {t.TARGET_RATE}}),
-    ("self.create_subscription(A, topic=c.TORQUE, callback=f)", {"sub": {t.TORQUE}, "pub": set()}),
-    ("for slot, (name, kind) in enumerate(((c.ATTITUDE, A), (c.TARGET_RATE, B))):\n"
-     "    self.create_subscription(kind, name, cb, q)",
-     {"sub": {t.ATTITUDE, t.TARGET_RATE}, "pub": set()}),
-    ("for topic in c.TOPICS:\n    self.create_subscription(X, topic.name, cb, q)",
-     {"sub": TOPIC_NAMES, "pub": set()}),
-])
+@pytest.mark.parametrize(
+    "source, expected",
+    [
+        ("self.create_publisher(A, c.TARGET_MRP, q)", {"sub": set(), "pub": {t.TARGET_MRP}}),
+        (
+            "pub = self.create_publisher\npub(A, c.TARGET_RATE, q)",
+            {"sub": set(), "pub": {t.TARGET_RATE}},
+        ),
+        (
+            "pub = lambda kind, name: self.create_publisher(kind, name, q(name))\npub(A, c.CLOCK)",
+            {"sub": set(), "pub": {t.CLOCK}},
+        ),
+        (
+            "self.create_subscription(A, topic=c.TORQUE, callback=f)",
+            {"sub": {t.TORQUE}, "pub": set()},
+        ),
+        (
+            "for slot, (name, kind) in enumerate(((c.ATTITUDE, A), (c.TARGET_RATE, B))):\n"
+            "    self.create_subscription(kind, name, cb, q)",
+            {"sub": {t.ATTITUDE, t.TARGET_RATE}, "pub": set()},
+        ),
+        (
+            "for topic in c.TOPICS:\n    self.create_subscription(X, topic.name, cb, q)",
+            {"sub": TOPIC_NAMES, "pub": set()},
+        ),
+    ],
+)
 def test_endpoint_reader_resolves_the_forms_used(source, expected):
     assert endpoints(source) == expected
 
 
-@pytest.mark.parametrize("source", ["self.create_publisher(A, '/elsewhere', q)",
-                                    "self.create_subscription(A, some_name, cb, q)"])
+@pytest.mark.parametrize(
+    "source",
+    ["self.create_publisher(A, '/elsewhere', q)", "self.create_subscription(A, some_name, cb, q)"],
+)
 def test_endpoint_reader_refuses_what_it_cannot_resolve(source):
     with pytest.raises(AssertionError, match="cannot resolve"):
         endpoints(source)

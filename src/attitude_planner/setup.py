@@ -7,8 +7,7 @@ setup(
     version='0.1.0',
     packages=[package_name],
     data_files=[
-        ('share/ament_index/resource_index/packages',
-            ['resource/' + package_name]),
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
     ],
     install_requires=['setuptools'],
@@ -16,7 +15,7 @@ setup(
     maintainer='Attitude Stack Maintainers',
     maintainer_email='maintainers@attitude-stack.dev',
     description='FEPF attitude guidance node: publishes the constraint-compliant target '
-                'MRP and rate',
+    'MRP and rate',
     license='Apache-2.0',
     entry_points={
         'console_scripts': [

@@ -53,32 +53,46 @@ class BagRecorderNode(Node):
         own, _ = declare_node_parameters(self, node_graph.RECORDER.parameters)
         self.output_dir = own["output_dir"]
         if not self.output_dir:
-            raise NodeParameterError(f"node '{self.get_name()}' parameters", "output_dir",
-                                     "missing required parameter")
-        self.stop_on = {PlannerStatus(s) for s in own["stop_on_planner_status"] if s}
+            raise NodeParameterError(
+                f"node '{self.get_name()}' parameters", "output_dir", "missing required parameter"
+            )
+        self.stop_on = {PlannerStatus.parse(s) for s in own["stop_on_planner_status"] if s}
         self.stop_delay_ns = int(c.NS_PER_S * own["stop_delay_s"])
-        self.stop_at_ns = None
+        self.stop_at_ns: int | None = None
         self.passed_stop: set[str] = set()
         self.stamped_topics = {t.name for t in c.TOPICS if t.stamped}
         scenario_file = own["scenario_file"]
         self.done = False
         self.exit_code = 0
         self._drain_count = -1
-        self.last_stamp_ns = None
+        self.last_stamp_ns: int | None = None
         self.writer = BagWriter(self.output_dir)
         if scenario_file:
             with open(scenario_file, "rb") as f:
                 self.writer.add_attachment("scenario.yaml", f.read(), "application/yaml")
         for topic in c.TOPICS:
             pub_qos = c.qos(topic)
-            self.writer.add_topic(topic.name, topic.type_name, qos_profile_yaml(
-                "reliable", "transient_local" if topic.latched else "volatile",
-                pub_qos.depth, "keep_last" if topic.latched else "keep_all"))
-            self.create_subscription(c.message_class(topic.type_name), topic.name,
-                                     self.callback(topic), c.recorder_qos(topic), raw=True)
-        self.get_logger().info(f"recording {len(c.TOPICS)} topics to {self.output_dir}"
-                               + (f"; stops on status {sorted(s.value for s in self.stop_on)}"
-                                  if self.stop_on else ""))
+            self.writer.add_topic(
+                topic.name,
+                topic.type_name,
+                qos_profile_yaml(
+                    "reliable",
+                    "transient_local" if topic.latched else "volatile",
+                    pub_qos.depth,
+                    "keep_last" if topic.latched else "keep_all",
+                ),
+            )
+            self.create_subscription(
+                c.message_class(topic.type_name),
+                topic.name,
+                self.callback(topic),
+                c.recorder_qos(topic),
+                raw=True,
+            )
+        self.get_logger().info(
+            f"recording {len(c.TOPICS)} topics to {self.output_dir}"
+            + (f"; stops on status {sorted(s.value for s in self.stop_on)}" if self.stop_on else "")
+        )
 
     def callback(self, topic):
         name, stamped = topic.name, topic.stamped
@@ -100,6 +114,7 @@ class BagRecorderNode(Node):
             self.writer.write(name, data, log_time, wall)
             if watch and self.stop_at_ns is None and any(m in data for m in markers):
                 self.check_stop(data, log_time)
+
         return on_message
 
     def check_stop(self, data: bytes, stamp_ns: int) -> None:
@@ -108,7 +123,8 @@ class BagRecorderNode(Node):
         for st in deserialize_message(data, DiagnosticArray).status:
             try:
                 status = PlannerDiagnostics.from_values(
-                    {kv.key: kv.value for kv in st.values}).status
+                    {kv.key: kv.value for kv in st.values}
+                ).status
             except ValueError:  # another node's diagnostics
                 continue
             if status in self.stop_on:
@@ -118,7 +134,8 @@ class BagRecorderNode(Node):
         self.stop_at_ns = stamp_ns + self.stop_delay_ns
         self.get_logger().info(
             f"planner status {status.value!r} at {stamp_ns / 1e9:.3f} s: recording until "
-            f"{self.stop_at_ns / 1e9:.3f} s")
+            f"{self.stop_at_ns / 1e9:.3f} s"
+        )
 
     def drained(self) -> bool:
         """True when nothing was written since the previous call (the runner drains the
@@ -129,8 +146,9 @@ class BagRecorderNode(Node):
 
     def close(self) -> None:
         self.writer.close()
-        self.get_logger().info(f"bag closed: {self.writer.message_count} messages in "
-                               f"{self.output_dir}")
+        self.get_logger().info(
+            f"bag closed: {self.writer.message_count} messages in {self.output_dir}"
+        )
 
 
 def main(args: list[str] | None = None) -> int:

@@ -61,19 +61,27 @@ def generate_launch_description():
             output='screen',
         )
 
-    return LaunchDescription([
-        DeclareLaunchArgument(
-            'scenario',
-            description='Path of the scenario parameters file (e.g. $PWD/scenarios/case1.yaml)'),
-        DeclareLaunchArgument(
-            'time_mode', default_value=LOCKSTEP, choices=list(TIME_MODES),
-            description='Pacing of the simulator: lockstep or realtime'),
-        DeclareLaunchArgument(
-            'bag_dir', default_value='bag',
-            description='Output directory of the recorded bag'),
-        *nodes.values(),
-        RegisterEventHandler(OnProcessExit(
-            target_action=nodes[graph.SIMULATOR.role],
-            on_exit=[Shutdown(reason=f'{graph.SIMULATOR.executable} exited')],
-        )),
-    ])
+    return LaunchDescription(
+        [
+            DeclareLaunchArgument(
+                'scenario',
+                description='Path of the scenario parameters file (e.g. $PWD/scenarios/case1.yaml)',
+            ),
+            DeclareLaunchArgument(
+                'time_mode',
+                default_value=LOCKSTEP,
+                choices=list(TIME_MODES),
+                description='Pacing of the simulator: lockstep or realtime',
+            ),
+            DeclareLaunchArgument(
+                'bag_dir', default_value='bag', description='Output directory of the recorded bag'
+            ),
+            *nodes.values(),
+            RegisterEventHandler(
+                OnProcessExit(
+                    target_action=nodes[graph.SIMULATOR.role],
+                    on_exit=[Shutdown(reason=f'{graph.SIMULATOR.executable} exited')],
+                )
+            ),
+        ]
+    )

@@ -41,7 +41,6 @@ _PENDING_MAX = 64  # stamps kept while waiting for their other inputs
 
 
 class PdControllerNode(Node):
-
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(node_graph.CONTROLLER.node_name, **kwargs)
         own, self.scenario = declare_scenario_node(self, node_graph.CONTROLLER.parameters)
@@ -50,22 +49,28 @@ class PdControllerNode(Node):
         self.dropped = 0
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
         self.pending: dict[int, list] = {}
-        self.last_stamp: int | None = None   # stamp of the last torque, and the torque
+        self.last_stamp: int | None = None  # stamp of the last torque, and the torque
         self.last_torque: WrenchStamped | None = None
         self.rejected = 0
-        self.pub_torque = self.create_publisher(WrenchStamped, c.TORQUE,
-                                                c.qos(c.topic(c.TORQUE)))
-        for slot, (name, msg_type, convert) in enumerate((
+        self.pub_torque = self.create_publisher(WrenchStamped, c.TORQUE, c.qos(c.topic(c.TORQUE)))
+        for slot, (name, msg_type, convert) in enumerate(
+            (
                 (c.ATTITUDE, QuaternionStamped, self.attitude),
                 (c.ANGULAR_VELOCITY, Vector3Stamped, self.vector),
                 (c.TARGET_MRP, Vector3Stamped, self.vector),
-                (c.TARGET_RATE, Vector3Stamped, self.vector))):
+                (c.TARGET_RATE, Vector3Stamped, self.vector),
+            )
+        ):
             self.create_subscription(
-                msg_type, name, self.callback(slot, name, convert),
-                c.qos(c.topic(name), subscriber=True))
+                msg_type,
+                name,
+                self.callback(slot, name, convert),
+                c.qos(c.topic(name), subscriber=True),
+            )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': Kp = {self.scenario.kp_over_j} J, "
-            f"Kd = {self.scenario.kd_over_j} J")
+            f"Kd = {self.scenario.kd_over_j} J"
+        )
 
     @staticmethod
     def attitude(msg):
@@ -99,6 +104,7 @@ class PdControllerNode(Node):
                 self.answer(stamp, msg.header.stamp, inputs)
             elif len(self.pending) > _PENDING_MAX:
                 del self.pending[min(self.pending)]
+
         return on_message
 
     def answer(self, stamp: int, stamp_msg, inputs) -> None:

@@ -49,5 +49,16 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         status[k] = target.status.code
         if k < n:
             body.step(u, dt)
-    return RunResult(scenario, dt * np.arange(n + 1), sigma, omega, torque, sigma_t, omega_t,
-                     d_obs, status, step_s, time.perf_counter() - wall0)
+    return RunResult(
+        scenario,
+        dt * np.arange(n + 1),
+        sigma,
+        omega,
+        torque,
+        sigma_t,
+        omega_t,
+        d_obs,
+        status,
+        step_s,
+        time.perf_counter() - wall0,
+    )

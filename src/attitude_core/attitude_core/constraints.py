@@ -49,7 +49,9 @@ def _unit_perpendicular(v: _Floats) -> _Floats:
 
 
 def margins_deg_from_dcm(
-    c_bn: np.ndarray, boresights_body: np.ndarray, half_angles_deg: np.ndarray,
+    c_bn: np.ndarray,
+    boresights_body: np.ndarray,
+    half_angles_deg: np.ndarray,
     directions_inertial: np.ndarray,
 ) -> np.ndarray:
     """Keep-out margins in degrees, shape ``(..., n_instruments, n_objects)``.
@@ -111,8 +113,13 @@ class KeepOutGeometry:
         if self.half_angles_deg.shape != (n_i,):
             raise ValueError("half_angles_deg must have one entry per boresight")
         self.n_instruments, self.n_objects = n_i, n_j
-        self._instruments_py = list(zip(map(tuple, self.boresights_body.tolist()),
-                                        self.half_angles_deg.tolist(), strict=True))
+        self._instruments_py = list(
+            zip(
+                map(tuple, self.boresights_body.tolist()),
+                self.half_angles_deg.tolist(),
+                strict=True,
+            )
+        )
         self._objects_py = [tuple(v) for v in self.directions_inertial.tolist()]
         self._build_rim_circles()
 
@@ -121,7 +128,9 @@ class KeepOutGeometry:
     def margins_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
         """Exact margins ``(..., n_i, n_j)`` in degrees at attitude(s) ``sigma_bn``."""
         return margins_deg_from_dcm(
-            dcm_from_mrp(sigma_bn), self.boresights_body, self.half_angles_deg,
+            dcm_from_mrp(sigma_bn),
+            self.boresights_body,
+            self.half_angles_deg,
             self.directions_inertial,
         )
 
@@ -161,8 +170,9 @@ class KeepOutGeometry:
                 e1 = _unit_perpendicular(c)
                 e2 = np.cross(c, e1)
                 # Boresight directions on the cone rim, inertial axes: (k, 3)
-                b = (np.cos(beta) * c[None, :]
-                     + np.sin(beta) * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2))
+                b = np.cos(beta) * c[None, :] + np.sin(beta) * (
+                    np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
+                )
                 cc, nn, rr = _fiber_circles(s, b)
                 centres.append(cc)
                 normals.append(nn)
@@ -174,11 +184,12 @@ class KeepOutGeometry:
         self._stack = np.concatenate([self._centres, self._normals])
         self._c_dot_c = np.einsum("ij,ij->i", self._centres, self._centres)
         self._c_dot_n = np.einsum("ij,ij->i", self._centres, self._normals)
-        self._r2 = self._radii ** 2
+        self._r2 = self._radii**2
         self._two_radii = 2.0 * self._radii
         self._m = len(self._radii)
-        self._circles_py = list(zip(self._centres.tolist(), self._normals.tolist(),
-                                    self._radii.tolist(), strict=True))
+        self._circles_py = list(
+            zip(self._centres.tolist(), self._normals.tolist(), self._radii.tolist(), strict=True)
+        )
 
     def rim_distances_sq(self, sigma: Vec3Like) -> _Floats:
         """Squared distance from ``sigma`` to every precomputed rim circle, ``(P*k,)``."""
@@ -188,16 +199,16 @@ class KeepOutGeometry:
         dd = proj[:m]
         dd *= -2.0
         dd += self._c_dot_c
-        dd += sx * sx + sy * sy + sz * sz                # |sigma - centre|^2
+        dd += sx * sx + sy * sy + sz * sz  # |sigma - centre|^2
         h = proj[m:]
-        h -= self._c_dot_n                               # axial offset
+        h -= self._c_dot_n  # axial offset
         h *= h
         np.subtract(dd, h, out=h)
         np.maximum(h, 0.0, out=h)
-        np.sqrt(h, out=h)                                # radial offset rho
+        np.sqrt(h, out=h)  # radial offset rho
         h *= self._two_radii
         dd += self._r2
-        dd -= h                                          # rho^2 + h^2 - 2 r rho + r^2
+        dd -= h  # rho^2 + h^2 - 2 r rho + r^2
         return np.maximum(dd, 0.0, out=dd)
 
     def closest_obstacle(self, sigma: Vec3Like) -> ObstacleQuery:
@@ -251,6 +262,7 @@ class KeepOutGeometry:
         f = r / rn
         return (cx + f * rx, cy + f * ry, cz + f * rz)
 
+
 def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floats, _Floats]:
     """MRP-space circles of the attitudes with ``C_BN^T s = b`` for each row ``b``.
 
@@ -283,8 +295,9 @@ def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floa
         else:
             assert best_pts is not None  # set together with best_score
             better = score > best_score
-            best_pts = [np.where(better[:, None], p, bp)
-                        for p, bp in zip(pts, best_pts, strict=True)]
+            best_pts = [
+                np.where(better[:, None], p, bp) for p, bp in zip(pts, best_pts, strict=True)
+            ]
             best_score = np.maximum(score, best_score)
     assert best_pts is not None  # the loop above runs
     a_pt, b_pt, c_pt = best_pts
@@ -298,4 +311,3 @@ def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floa
     radius = np.linalg.norm(centre - c_pt, axis=1)
     normal = uxv / np.sqrt(nrm2)[:, None]
     return centre, normal, radius
-

@@ -24,15 +24,16 @@ class PdGains:
         self.kd = np.asarray(kd, dtype=float).reshape(3, 3)
 
     @classmethod
-    def from_inertia(cls, inertia_kgm2: np.ndarray, kp_over_j: float = 5.5,
-                     kd_over_j: float = 3.1) -> PdGains:
+    def from_inertia(
+        cls, inertia_kgm2: np.ndarray, kp_over_j: float = 5.5, kd_over_j: float = 3.1
+    ) -> PdGains:
         j = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
         return cls(kp_over_j * j, kd_over_j * j)
 
 
-def tracking_errors(sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike, sigma_rn: npt.ArrayLike,
-                    omega_r: npt.ArrayLike
-                    ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
+def tracking_errors(
+    sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike, sigma_rn: npt.ArrayLike, omega_r: npt.ArrayLike
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Attitude and rate errors ``(sigma_B/R, omega_B - C_BR omega_R)`` in body axes.
 
     ``omega_r`` is the target (reference) rate in target-frame axes, rad/s.
@@ -43,8 +44,13 @@ def tracking_errors(sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike, sigma_rn: n
     return sigma_br, omega_e
 
 
-def pd_torque(gains: PdGains, sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike,
-              sigma_rn: npt.ArrayLike, omega_r: npt.ArrayLike) -> npt.NDArray[np.float64]:
+def pd_torque(
+    gains: PdGains,
+    sigma_bn: npt.ArrayLike,
+    omega_b: npt.ArrayLike,
+    sigma_rn: npt.ArrayLike,
+    omega_r: npt.ArrayLike,
+) -> npt.NDArray[np.float64]:
     """Control torque ``u`` in body axes, N m (eq. 11)."""
     sigma_e, omega_e = tracking_errors(sigma_bn, omega_b, sigma_rn, omega_r)
     return -(gains.kp @ sigma_e) - gains.kd @ omega_e

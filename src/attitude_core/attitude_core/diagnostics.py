@@ -28,18 +28,25 @@ __all__ = [
     "PlannerDiagnostics",
 ]
 
-STATUS_NAME = "fepf_planner"        # DiagnosticStatus.name
-HARDWARE_ID = "attitude_planner"    # DiagnosticStatus.hardware_id
+STATUS_NAME = "fepf_planner"  # DiagnosticStatus.name
+HARDWARE_ID = "attitude_planner"  # DiagnosticStatus.hardware_id
 
-STATUS = "status"                                 # a PlannerStatus
-STEP_TIME_US = "step_time_us"                     # wall time of the planner step, us
-OBSTACLE_DISTANCE_MRP = "obstacle_distance_mrp"   # MRP distance to the closest inflated cone
-KEEP_OUT_MARGIN_DEG = "keep_out_margin_deg"       # exact margin of the measured attitude, deg
-M_A = "m_a"                                       # attractive FIS magnitude, MRP/s (eq. 6)
-M_R = "m_r"                                       # repulsive FIS magnitude, MRP/s (eq. 6)
-REJECTED_MESSAGES = "rejected_messages"           # refused input messages so far
-KEYS = (STATUS, STEP_TIME_US, OBSTACLE_DISTANCE_MRP, KEEP_OUT_MARGIN_DEG, M_A, M_R,
-        REJECTED_MESSAGES)
+STATUS = "status"  # a PlannerStatus
+STEP_TIME_US = "step_time_us"  # wall time of the planner step, us
+OBSTACLE_DISTANCE_MRP = "obstacle_distance_mrp"  # MRP distance to the closest inflated cone
+KEEP_OUT_MARGIN_DEG = "keep_out_margin_deg"  # exact margin of the measured attitude, deg
+M_A = "m_a"  # attractive FIS magnitude, MRP/s (eq. 6)
+M_R = "m_r"  # repulsive FIS magnitude, MRP/s (eq. 6)
+REJECTED_MESSAGES = "rejected_messages"  # refused input messages so far
+KEYS = (
+    STATUS,
+    STEP_TIME_US,
+    OBSTACLE_DISTANCE_MRP,
+    KEEP_OUT_MARGIN_DEG,
+    M_A,
+    M_R,
+    REJECTED_MESSAGES,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,13 +63,15 @@ class PlannerDiagnostics:
 
     def values(self) -> list[tuple[str, str]]:
         """The key/value pairs, in :data:`KEYS` order."""
-        return [(STATUS, self.status.value),
-                (STEP_TIME_US, f"{self.step_time_s * 1e6:.3f}"),
-                (OBSTACLE_DISTANCE_MRP, repr(float(self.obstacle_distance_mrp))),
-                (KEEP_OUT_MARGIN_DEG, repr(float(self.keep_out_margin_deg))),
-                (M_A, repr(float(self.m_a))),
-                (M_R, repr(float(self.m_r))),
-                (REJECTED_MESSAGES, str(int(self.rejected_messages)))]
+        return [
+            (STATUS, self.status.value),
+            (STEP_TIME_US, f"{self.step_time_s * 1e6:.3f}"),
+            (OBSTACLE_DISTANCE_MRP, repr(float(self.obstacle_distance_mrp))),
+            (KEEP_OUT_MARGIN_DEG, repr(float(self.keep_out_margin_deg))),
+            (M_A, repr(float(self.m_a))),
+            (M_R, repr(float(self.m_r))),
+            (REJECTED_MESSAGES, str(int(self.rejected_messages))),
+        ]
 
     @classmethod
     def from_values(cls, values: Mapping[str, str]) -> PlannerDiagnostics:
@@ -70,21 +79,18 @@ class PlannerDiagnostics:
 
         Raises ``ValueError`` when the status is missing or not a planner status.
         """
+
         def number(key: str) -> float:
             return float(values.get(key, "nan"))
 
-        # PlannerStatus(value) is the value lookup; mypy checks it against the members'
-        # __new__ instead (python/mypy#10573).
-        return cls(status=PlannerStatus(values[STATUS]) if STATUS in values  # type: ignore[call-arg]
-                   else _missing_status(),
-                   step_time_s=number(STEP_TIME_US) * 1e-6,
-                   obstacle_distance_mrp=number(OBSTACLE_DISTANCE_MRP),
-                   keep_out_margin_deg=number(KEEP_OUT_MARGIN_DEG),
-                   m_a=number(M_A), m_r=number(M_R),
-                   rejected_messages=int(values.get(REJECTED_MESSAGES, "-1")))
-
-
-def _missing_status() -> PlannerStatus:
-    raise ValueError(f"planner diagnostics without a {STATUS!r} value")
-
-
+        if STATUS not in values:
+            raise ValueError(f"planner diagnostics without a {STATUS!r} value")
+        return cls(
+            status=PlannerStatus.parse(values[STATUS]),
+            step_time_s=number(STEP_TIME_US) * 1e-6,
+            obstacle_distance_mrp=number(OBSTACLE_DISTANCE_MRP),
+            keep_out_margin_deg=number(KEEP_OUT_MARGIN_DEG),
+            m_a=number(M_A),
+            m_r=number(M_R),
+            rejected_messages=int(values.get(REJECTED_MESSAGES, "-1")),
+        )

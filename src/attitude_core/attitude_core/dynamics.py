@@ -17,8 +17,9 @@ __all__ = ["RigidBody", "state_derivative"]
 _Floats = npt.NDArray[np.float64]
 
 
-def state_derivative(inertia: _Floats, inertia_inv: _Floats, sigma: _Floats, omega: _Floats,
-                     torque: _Floats) -> tuple[_Floats, _Floats]:
+def state_derivative(
+    inertia: _Floats, inertia_inv: _Floats, sigma: _Floats, omega: _Floats, torque: _Floats
+) -> tuple[_Floats, _Floats]:
     """``(sigma_dot, omega_dot)`` with ``J omega_dot = -omega x J omega + u`` (eq. 4)."""
     omega_dot = inertia_inv @ (torque - np.cross(omega, inertia @ omega))
     return mrp_rate(sigma, omega), omega_dot
@@ -27,8 +28,9 @@ def state_derivative(inertia: _Floats, inertia_inv: _Floats, sigma: _Floats, ome
 class RigidBody:
     """Torque-driven rigid body with inertia ``J`` (kg m^2, body axes)."""
 
-    def __init__(self, inertia_kgm2: npt.ArrayLike, sigma_bn: npt.ArrayLike,
-                 omega_b: npt.ArrayLike) -> None:
+    def __init__(
+        self, inertia_kgm2: npt.ArrayLike, sigma_bn: npt.ArrayLike, omega_b: npt.ArrayLike
+    ) -> None:
         self.inertia: _Floats = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
         self.inertia_inv = np.linalg.inv(self.inertia)
         self.sigma_bn: _Floats = to_principal(np.asarray(sigma_bn, dtype=float))
@@ -54,9 +56,11 @@ class RigidBody:
             r1 = u[0] - (w2 * h3 - w3 * h2)
             r2 = u[1] - (w3 * h1 - w1 * h3)
             r3 = u[2] - (w1 * h2 - w2 * h1)
-            wd = (ji[0][0] * r1 + ji[0][1] * r2 + ji[0][2] * r3,
-                  ji[1][0] * r1 + ji[1][1] * r2 + ji[1][2] * r3,
-                  ji[2][0] * r1 + ji[2][1] * r2 + ji[2][2] * r3)
+            wd = (
+                ji[0][0] * r1 + ji[0][1] * r2 + ji[0][2] * r3,
+                ji[1][0] * r1 + ji[1][1] * r2 + ji[1][2] * r3,
+                ji[2][0] * r1 + ji[2][1] * r2 + ji[2][2] * r3,
+            )
             return mrp_rate_single(s, w), wd
 
         def add(x: Vec3, k: Vec3, f: float) -> Vec3:

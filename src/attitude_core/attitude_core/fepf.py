@@ -32,18 +32,19 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
+import numpy.typing as npt
 
 from .constraints import KeepOutGeometry
 from .fis_files import resolve_fis
 from .fuzzy import load_fis, lookup_table
-from .mrp import omega_from_mrp_rate_single
+from .mrp import Vec3, Vec3Like, omega_from_mrp_rate_single
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
-    from .scenario import Scenario
+    from .scenario import PlannerConfig, Scenario
 
 __all__ = ["PlannerStatus", "PlannerOutput", "FepfPlanner", "rotation_matrix"]
 
@@ -63,42 +64,46 @@ class PlannerOutput:
     obstacle_distance_mrp: float
 
 
-def rotation_matrix(gamma: float, axis) -> np.ndarray:
+def rotation_matrix(gamma: float, axis: Vec3Like) -> npt.NDArray[np.float64]:
     """Eq. 9: rotation by ``gamma`` (rad) about the unit vector ``axis``."""
     o1, o2, o3 = axis
     c, s = math.cos(gamma), math.sin(gamma)
     k = 1.0 - c
-    return np.array([
-        [o1 * o1 * k + c, o1 * o2 * k - o3 * s, o1 * o3 * k + o2 * s],
-        [o2 * o1 * k + o3 * s, o2 * o2 * k + c, o2 * o3 * k - o1 * s],
-        [o3 * o1 * k - o2 * s, o3 * o2 * k + o1 * s, o3 * o3 * k + c],
-    ])
+    return np.array(
+        [
+            [o1 * o1 * k + c, o1 * o2 * k - o3 * s, o1 * o3 * k + o2 * s],
+            [o2 * o1 * k + o3 * s, o2 * o2 * k + c, o2 * o3 * k - o1 * s],
+            [o3 * o1 * k - o2 * s, o3 * o2 * k + o1 * s, o3 * o3 * k + c],
+        ]
+    )
 
 
-def _rotate(v, axis, cos_g, sin_g):
+def _rotate(v: Vec3, axis: Vec3, cos_g: float, sin_g: float) -> Vec3:
     """Rodrigues rotation of ``v`` about unit ``axis`` (same as ``rotation_matrix @ v``)."""
     vx, vy, vz = v
     ox, oy, oz = axis
     dot = ox * vx + oy * vy + oz * vz
     cx, cy, cz = oy * vz - oz * vy, oz * vx - ox * vz, ox * vy - oy * vx
     k = (1.0 - cos_g) * dot
-    return (vx * cos_g + cx * sin_g + ox * k,
-            vy * cos_g + cy * sin_g + oy * k,
-            vz * cos_g + cz * sin_g + oz * k)
+    return (
+        vx * cos_g + cx * sin_g + ox * k,
+        vy * cos_g + cy * sin_g + oy * k,
+        vz * cos_g + cz * sin_g + oz * k,
+    )
 
 
-def _unit_or_none(x, y, z, eps=1e-9):
+def _unit_or_none(x: float, y: float, z: float, eps: float = 1e-9) -> Vec3 | None:
     n = math.sqrt(x * x + y * y + z * z)
     if n < eps:
         return None
     return (x / n, y / n, z / n)
 
 
-def _any_perpendicular(v):
+def _any_perpendicular(v: Vec3) -> Vec3 | None:
     x, y, z = v
     if abs(x) < 0.9:
         return _unit_or_none(0.0, z, -y)  # v x e1
-    return _unit_or_none(-z, 0.0, x)      # v x e2
+    return _unit_or_none(-z, 0.0, x)  # v x e2
 
 
 class FepfPlanner:
@@ -114,12 +119,19 @@ class FepfPlanner:
     scenario_dir : directory for resolving FIS paths that contain a ``/``.
     """
 
-    def __init__(self, geometry: KeepOutGeometry, sigma_0, sigma_goal, dt_s: float,
-                 config, scenario_dir: str | None = None) -> None:
+    def __init__(
+        self,
+        geometry: KeepOutGeometry,
+        sigma_0: Vec3Like,
+        sigma_goal: Vec3Like,
+        dt_s: float,
+        config: PlannerConfig,
+        scenario_dir: str | None = None,
+    ) -> None:
         self.geometry = geometry
         self.dt = float(dt_s)
         self.cfg = config
-        self.goal = tuple(float(x) for x in sigma_goal)
+        self.goal = cast(Vec3, tuple(float(x) for x in sigma_goal))
         base = os.getcwd() if scenario_dir is None else scenario_dir
         self.fis_a = load_fis(resolve_fis(config.fis_attractive, base))
         self.fis_r = load_fis(resolve_fis(config.fis_repulsive, base))
@@ -129,7 +141,8 @@ class FepfPlanner:
             if unknown:
                 raise ValueError(
                     f"FIS '{fis.name}': unknown input(s) {sorted(unknown)}; "
-                    f"the planner provides {sorted(known)}")
+                    f"the planner provides {sorted(known)}"
+                )
         self._table_a = lookup_table(self.fis_a)
         self._table_r = lookup_table(self.fis_r)
         self._inputs_a = tuple(self.fis_a.input_names)
@@ -140,7 +153,7 @@ class FepfPlanner:
         self.reset(sigma_0)
 
     @classmethod
-    def from_scenario(cls, scenario: Scenario, sigma_0=None) -> FepfPlanner:
+    def from_scenario(cls, scenario: Scenario, sigma_0: Vec3Like | None = None) -> FepfPlanner:
         """The planner of a scenario, starting at ``sigma_0`` (default: the scenario's).
 
         The safety buffer is the configured ``planner.safety_margin_deg``, reduced to
@@ -149,17 +162,24 @@ class FepfPlanner:
         cfg = scenario.planner
         exact = scenario.keep_out()
         start = scenario.initial_mrp if sigma_0 is None else np.asarray(sigma_0, dtype=float)
-        end_margin = min(float(exact.min_margin_deg(start)),
-                         float(exact.min_margin_deg(scenario.desired_mrp)))
+        end_margin = min(
+            float(exact.min_margin_deg(start)), float(exact.min_margin_deg(scenario.desired_mrp))
+        )
         inflation = min(cfg.safety_margin_deg, 0.5 * max(end_margin, 0.0))
         geometry = scenario.keep_out(inflation_deg=inflation, samples=cfg.obstacle_samples)
-        return cls(geometry, start, scenario.desired_mrp, scenario.dt_s, cfg,
-                   scenario_dir=os.path.dirname(os.path.abspath(scenario.source)))
+        return cls(
+            geometry,
+            start,
+            scenario.desired_mrp,
+            scenario.dt_s,
+            cfg,
+            scenario_dir=os.path.dirname(os.path.abspath(scenario.source)),
+        )
 
-    def reset(self, sigma) -> None:
+    def reset(self, sigma: Vec3Like) -> None:
         """Restart from attitude ``sigma`` (e.g. the measured attitude after a restart)."""
-        self.sigma_t = tuple(float(x) for x in sigma)
-        self._rate = (0.0, 0.0, 0.0)
+        self.sigma_t = cast(Vec3, tuple(float(x) for x in sigma))
+        self._rate: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.status = PlannerStatus.TRACKING
         self._best_goal_distance = math.inf
         self._since_progress = 0.0
@@ -175,14 +195,16 @@ class FepfPlanner:
         d_goal = math.sqrt(ex * ex + ey * ey + ez * ez)
         cfg = self.cfg
         if self.status == PlannerStatus.ARRIVED or (
-                self.status == PlannerStatus.TRACKING and d_goal <= cfg.goal_tolerance_mrp):
+            self.status == PlannerStatus.TRACKING and d_goal <= cfg.goal_tolerance_mrp
+        ):
             self.status = PlannerStatus.ARRIVED
             self.sigma_t = self.goal
             self._rate = (0.0, 0.0, 0.0)
             return self._output(self.goal, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance)
         if self.status == PlannerStatus.STUCK:
-            return self._output(self.sigma_t, (0.0, 0.0, 0.0), 0.0, 0.0,
-                                self.last_obstacle_distance)
+            return self._output(
+                self.sigma_t, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance
+            )
 
         a_hat = (ex / d_goal, ey / d_goal, ez / d_goal)
         query = self.geometry.closest_obstacle(self.sigma_t)
@@ -199,8 +221,11 @@ class FepfPlanner:
         m_r = 0.0
         visibility = _goal_occlusion(d_goal, d_obs)
         if d_obs < cfg.influence_distance_mrp and visibility > 0.0:
-            m_r = visibility * cfg.max_repulsive_rate_mrp_s * self._table_r(
-                *(inputs[n] for n in self._inputs_r))
+            m_r = (
+                visibility
+                * cfg.max_repulsive_rate_mrp_s
+                * self._table_r(*(inputs[n] for n in self._inputs_r))
+            )
 
         vx, vy, vz = m_a * a_hat[0], m_a * a_hat[1], m_a * a_hat[2]
         if m_r > 0.0:
@@ -233,8 +258,9 @@ class FepfPlanner:
 
         # Terminal step: land exactly on the goal when the step would reach it.
         nx, ny, nz = gx - new[0], gy - new[1], gz - new[2]
-        if nx * nx + ny * ny + nz * nz <= cfg.goal_tolerance_mrp ** 2 or (
-                cfg.terminal_time_constant_s == 0.0 and step_len >= d_goal and d_goal < d_obs):
+        if nx * nx + ny * ny + nz * nz <= cfg.goal_tolerance_mrp**2 or (
+            cfg.terminal_time_constant_s == 0.0 and step_len >= d_goal and d_goal < d_obs
+        ):
             new = self.goal
 
         out = self._output(self.sigma_t, (vx, vy, vz), m_a, m_r, d_obs)
@@ -244,29 +270,34 @@ class FepfPlanner:
 
     # ------------------------------------------------------------------------------
 
-    def _repulsive_direction(self, a_hat, c_hat, ac):
+    def _repulsive_direction(self, a_hat: Vec3, c_hat: Vec3, ac: float) -> Vec3:
         """Eqs. 8-10: ``sigma_r_hat = -R(gamma, o_hat) sigma_c_hat``."""
         neg_c = (-c_hat[0], -c_hat[1], -c_hat[2])
         if self._gamma == 0.0:
             return neg_c
         if self._paper_axis:
             sx, sy, sz = self.sigma_t
-            axis = _unit_or_none(c_hat[1] * sz - c_hat[2] * sy,
-                                 c_hat[2] * sx - c_hat[0] * sz,
-                                 c_hat[0] * sy - c_hat[1] * sx)
+            axis = _unit_or_none(
+                c_hat[1] * sz - c_hat[2] * sy,
+                c_hat[2] * sx - c_hat[0] * sz,
+                c_hat[0] * sy - c_hat[1] * sx,
+            )
             if axis is None:
                 return neg_c
         else:
-            axis = _unit_or_none(a_hat[1] * c_hat[2] - a_hat[2] * c_hat[1],
-                                 a_hat[2] * c_hat[0] - a_hat[0] * c_hat[2],
-                                 a_hat[0] * c_hat[1] - a_hat[1] * c_hat[0])
+            axis = _unit_or_none(
+                a_hat[1] * c_hat[2] - a_hat[2] * c_hat[1],
+                a_hat[2] * c_hat[0] - a_hat[0] * c_hat[2],
+                a_hat[0] * c_hat[1] - a_hat[1] * c_hat[0],
+            )
             if axis is None:
                 if ac < 0.0:  # obstacle straight behind: nothing to steer around
                     return neg_c
-                axis = _any_perpendicular(c_hat)  # head-on: break the symmetry
+                # head-on: break the symmetry (not None: c_hat is a unit vector)
+                axis = cast(Vec3, _any_perpendicular(c_hat))
         return _rotate(neg_c, axis, self._cos_g, self._sin_g)
 
-    def _shape_rate(self, vx, vy, vz, d_goal):
+    def _shape_rate(self, vx: float, vy: float, vz: float, d_goal: float) -> Vec3:
         """Improved variant: bounded target acceleration and terminal slow-down."""
         cfg = self.cfg
         a_max = cfg.max_accel_mrp_s2
@@ -287,7 +318,7 @@ class FepfPlanner:
                 vx, vy, vz = vx * f, vy * f, vz * f
         return vx, vy, vz
 
-    def _advance(self, new, d_goal_before) -> None:
+    def _advance(self, new: Vec3, d_goal_before: float) -> None:
         self.sigma_t = new
         # Shadow switch keeps the target inside the unit ball (eq. 2).
         s2 = new[0] ** 2 + new[1] ** 2 + new[2] ** 2
@@ -306,10 +337,18 @@ class FepfPlanner:
             if self._since_progress >= self.cfg.stuck_timeout_s:
                 self.status = PlannerStatus.STUCK
 
-    def _output(self, sigma, rate, m_a, m_r, d_obs) -> PlannerOutput:
-        return PlannerOutput(np.array(sigma, dtype=float), np.array(rate, dtype=float),
-                             omega_from_mrp_rate_single(sigma, rate), self.status, float(m_a),
-                             float(m_r), float(d_obs))
+    def _output(
+        self, sigma: Vec3, rate: Vec3, m_a: float, m_r: float, d_obs: float
+    ) -> PlannerOutput:
+        return PlannerOutput(
+            np.array(sigma, dtype=float),
+            np.array(rate, dtype=float),
+            omega_from_mrp_rate_single(sigma, rate),
+            self.status,
+            float(m_a),
+            float(m_r),
+            float(d_obs),
+        )
 
 
 def _goal_occlusion(d_goal: float, d_obs: float) -> float:

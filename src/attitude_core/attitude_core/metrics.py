@@ -27,8 +27,13 @@ def _quat_rate_sf(q: np.ndarray, omega: np.ndarray) -> np.ndarray:
     return np.concatenate([d0, dv], -1)
 
 
-def dense_min_margin_deg(geometry: KeepOutGeometry, t: np.ndarray, sigma_bn: np.ndarray,
-                         omega_b: np.ndarray, substeps: int = 8) -> tuple[float, float]:
+def dense_min_margin_deg(
+    geometry: KeepOutGeometry,
+    t: np.ndarray,
+    sigma_bn: np.ndarray,
+    omega_b: np.ndarray,
+    substeps: int = 8,
+) -> tuple[float, float]:
     """Smallest exact keep-out margin over the whole run, between samples too.
 
     Between samples the attitude is a cubic Hermite interpolant of the quaternion and
@@ -44,8 +49,7 @@ def dense_min_margin_deg(geometry: KeepOutGeometry, t: np.ndarray, sigma_bn: np.
     s = (np.arange(substeps + 1) / substeps)[None, :, None]
     h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
     h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-    qi = (h00 * q[:-1, None] + h10 * h * qd[:-1, None]
-          + h01 * q[1:, None] + h11 * h * qd[1:, None])
+    qi = h00 * q[:-1, None] + h10 * h * qd[:-1, None] + h01 * q[1:, None] + h11 * h * qd[1:, None]
     qi /= np.linalg.norm(qi, axis=-1, keepdims=True)
     margins = geometry.min_margin_deg(mrp_from_quat_sf(qi))  # (N-1, substeps+1)
     k = int(np.argmin(margins))
@@ -64,9 +68,14 @@ def path_length_mrp(sigma: np.ndarray) -> float:
     return float(np.sum(np.fmin(direct, np.nan_to_num(via_shadow, nan=np.inf))))
 
 
-def arrival_time(t: np.ndarray, sigma_bn: np.ndarray, omega_b: np.ndarray,
-                 sigma_goal: np.ndarray, attitude_tol_deg: float, rate_tol_rad_s: float
-                 ) -> tuple[bool, float | None, npt.NDArray[np.float64]]:
+def arrival_time(
+    t: np.ndarray,
+    sigma_bn: np.ndarray,
+    omega_b: np.ndarray,
+    sigma_goal: np.ndarray,
+    attitude_tol_deg: float,
+    rate_tol_rad_s: float,
+) -> tuple[bool, float | None, npt.NDArray[np.float64]]:
     """First time after which the body stays within the arrival tolerances.
 
     Attitude error is the principal angle of ``sigma_B/D``. Returns

@@ -115,9 +115,7 @@ def b_matrix(sigma: npt.ArrayLike) -> _Floats:
     sigma = np.asarray(sigma, dtype=float)
     s2: _Floats = np.einsum("...i,...i->...", sigma, sigma)[..., None, None]
     b: _Floats = (
-        (1.0 - s2) * np.eye(3)
-        + 2.0 * skew(sigma)
-        + 2.0 * sigma[..., :, None] * sigma[..., None, :]
+        (1.0 - s2) * np.eye(3) + 2.0 * skew(sigma) + 2.0 * sigma[..., :, None] * sigma[..., None, :]
     )
     return b
 
@@ -152,9 +150,11 @@ def mrp_rate_single(sigma: Vec3, omega: Vec3) -> Vec3:
     ss = s1 * s1 + s2 * s2 + s3 * s3
     sw = s1 * w1 + s2 * w2 + s3 * w3
     a = 1.0 - ss
-    return (0.25 * (a * w1 + 2.0 * (s2 * w3 - s3 * w2) + 2.0 * s1 * sw),
-            0.25 * (a * w2 + 2.0 * (s3 * w1 - s1 * w3) + 2.0 * s2 * sw),
-            0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw))
+    return (
+        0.25 * (a * w1 + 2.0 * (s2 * w3 - s3 * w2) + 2.0 * s1 * sw),
+        0.25 * (a * w2 + 2.0 * (s3 * w1 - s1 * w3) + 2.0 * s2 * sw),
+        0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw),
+    )
 
 
 def omega_from_mrp_rate_single(sigma: Vec3Like, sigma_dot: Vec3Like) -> _Floats:
@@ -165,11 +165,13 @@ def omega_from_mrp_rate_single(sigma: Vec3Like, sigma_dot: Vec3Like) -> _Floats:
     sd = s1 * d1 + s2 * d2 + s3 * d3
     k = 4.0 / (1.0 + ss) ** 2
     a = 1.0 - ss
-    return np.array([
-        k * (a * d1 - 2.0 * (s2 * d3 - s3 * d2) + 2.0 * s1 * sd),
-        k * (a * d2 - 2.0 * (s3 * d1 - s1 * d3) + 2.0 * s2 * sd),
-        k * (a * d3 - 2.0 * (s1 * d2 - s2 * d1) + 2.0 * s3 * sd),
-    ])
+    return np.array(
+        [
+            k * (a * d1 - 2.0 * (s2 * d3 - s3 * d2) + 2.0 * s1 * sd),
+            k * (a * d2 - 2.0 * (s3 * d1 - s1 * d3) + 2.0 * s2 * sd),
+            k * (a * d3 - 2.0 * (s1 * d2 - s2 * d1) + 2.0 * s3 * sd),
+        ]
+    )
 
 
 def compose(sigma_outer: npt.ArrayLike, sigma_inner: npt.ArrayLike) -> _Floats:

@@ -13,8 +13,20 @@ from dataclasses import dataclass
 from . import node_parameters as params
 from . import topics as t
 
-__all__ = ["NodeSpec", "RECORDER", "PLANNER", "CONTROLLER", "SIMULATOR", "NODES",
-           "LOOP", "STOP_ORDER", "node", "state_listeners", "Readiness", "readiness"]
+__all__ = [
+    "NodeSpec",
+    "RECORDER",
+    "PLANNER",
+    "CONTROLLER",
+    "SIMULATOR",
+    "NODES",
+    "LOOP",
+    "STOP_ORDER",
+    "node",
+    "state_listeners",
+    "Readiness",
+    "readiness",
+]
 
 
 @dataclass(frozen=True)
@@ -35,24 +47,49 @@ class NodeSpec:
         return f"{self.package}.{_MODULES[self.executable]}"
 
 
-_MODULES = {"bag_recorder": "recorder_node", "fepf_planner": "planner_node",
-            "pd_controller": "controller_node", "rigid_body_sim": "sim_node"}
+_MODULES = {
+    "bag_recorder": "recorder_node",
+    "fepf_planner": "planner_node",
+    "pd_controller": "controller_node",
+    "rigid_body_sim": "sim_node",
+}
 
-RECORDER = NodeSpec("recorder", "attitude_bringup", "bag_recorder", "bag_recorder",
-                    subscribes=tuple(topic.name for topic in t.TOPICS), publishes=(),
-                    parameters=params.RECORDER)
-PLANNER = NodeSpec("planner", "attitude_planner", "fepf_planner", "fepf_planner",
-                   subscribes=(t.ATTITUDE,),
-                   publishes=(t.TARGET_MRP, t.TARGET_RATE, t.PLANNER_STATUS, t.KEEP_OUT_MARGIN,
-                              t.DIAGNOSTICS),
-                   parameters=params.PLANNER)
-CONTROLLER = NodeSpec("controller", "attitude_controller", "pd_controller", "pd_controller",
-                      subscribes=(t.ATTITUDE, t.ANGULAR_VELOCITY, t.TARGET_MRP, t.TARGET_RATE),
-                      publishes=(t.TORQUE,), parameters=params.CONTROLLER)
-SIMULATOR = NodeSpec("simulator", "spacecraft_sim", "rigid_body_sim", "rigid_body_sim",
-                     subscribes=(t.TORQUE,),
-                     publishes=(t.CLOCK, t.ATTITUDE, t.ANGULAR_VELOCITY, t.APPLIED_TORQUE),
-                     parameters=params.SIMULATOR)
+RECORDER = NodeSpec(
+    "recorder",
+    "attitude_bringup",
+    "bag_recorder",
+    "bag_recorder",
+    subscribes=tuple(topic.name for topic in t.TOPICS),
+    publishes=(),
+    parameters=params.RECORDER,
+)
+PLANNER = NodeSpec(
+    "planner",
+    "attitude_planner",
+    "fepf_planner",
+    "fepf_planner",
+    subscribes=(t.ATTITUDE,),
+    publishes=(t.TARGET_MRP, t.TARGET_RATE, t.PLANNER_STATUS, t.KEEP_OUT_MARGIN, t.DIAGNOSTICS),
+    parameters=params.PLANNER,
+)
+CONTROLLER = NodeSpec(
+    "controller",
+    "attitude_controller",
+    "pd_controller",
+    "pd_controller",
+    subscribes=(t.ATTITUDE, t.ANGULAR_VELOCITY, t.TARGET_MRP, t.TARGET_RATE),
+    publishes=(t.TORQUE,),
+    parameters=params.CONTROLLER,
+)
+SIMULATOR = NodeSpec(
+    "simulator",
+    "spacecraft_sim",
+    "rigid_body_sim",
+    "rigid_body_sim",
+    subscribes=(t.TORQUE,),
+    publishes=(t.CLOCK, t.ATTITUDE, t.ANGULAR_VELOCITY, t.APPLIED_TORQUE),
+    parameters=params.SIMULATOR,
+)
 
 NODES = (RECORDER, PLANNER, CONTROLLER, SIMULATOR)
 """Start order: the recorder first (nothing is missed), the simulator last (it waits)."""
@@ -100,6 +137,11 @@ def readiness(expected_subscribers: int) -> Readiness:
         missing = sum(name not in n.subscribes for n in listeners)
         own = int(name in SIMULATOR.subscribes)
         subs[name] = max(expected_subscribers - missing + own, 0)
-    pubs = {name: 1 for n in LOOP if n is not SIMULATOR for name in n.publishes
-            if any(name in m.subscribes for m in LOOP)}
+    pubs = {
+        name: 1
+        for n in LOOP
+        if n is not SIMULATOR
+        for name in n.publishes
+        if any(name in m.subscribes for m in LOOP)
+    }
     return Readiness(subs, dict(sorted(pubs.items())))

@@ -91,8 +91,10 @@ class Bounds:
             return f"{'>' if self.lo_open else '>='} {_num(self.lo)}"
         if self.lo is None:
             return f"{'<' if self.hi_open else '<='} {_num(self.hi)}"
-        return (f"{'(' if self.lo_open else '['}{_num(self.lo)}, {_num(self.hi)}"
-                f"{')' if self.hi_open else ']'}")
+        return (
+            f"{'(' if self.lo_open else '['}{_num(self.lo)}, {_num(self.hi)}"
+            f"{')' if self.hi_open else ']'}"
+        )
 
     def check(self, x: float) -> str | None:
         ok_lo = self.lo is None or (x > self.lo if self.lo_open else x >= self.lo)
@@ -119,10 +121,21 @@ def ge(lo: float) -> Bounds:
 
 
 # ROS 2 parameter type of each value kind.
-ROS_TYPES = {"str": "string", "name": "string", "names": "string_array",
-             "str_list": "string_array", "int": "integer", "float": "double", "bool": "bool",
-             "vec3": "double_array", "unit3": "double_array", "mrp": "double_array",
-             "matrix3": "double_array", "data_file": "string", "path": "string"}
+ROS_TYPES = {
+    "str": "string",
+    "name": "string",
+    "names": "string_array",
+    "str_list": "string_array",
+    "int": "integer",
+    "float": "double",
+    "bool": "bool",
+    "vec3": "double_array",
+    "unit3": "double_array",
+    "mrp": "double_array",
+    "matrix3": "double_array",
+    "data_file": "string",
+    "path": "string",
+}
 
 
 @dataclass(frozen=True)
@@ -172,19 +185,35 @@ class Param:
 
     def renamed(self, key: str) -> Param:
         """The same row under another key (per-instrument and per-object keys)."""
-        return Param(key, self.kind, self.description, self.default, self.bounds,
-                     self.choices, self.check, self.read_only)
+        return Param(
+            key,
+            self.kind,
+            self.description,
+            self.default,
+            self.bounds,
+            self.choices,
+            self.check,
+            self.read_only,
+        )
 
 
 # --- converters: raw value -> typed value, raising _Bad(reason) ---------------------------
+
 
 class _Bad(Exception):
     pass
 
 
 def type_name(v: Any) -> str:
-    names = {bool: "boolean", int: "integer", float: "float", str: "string",
-             list: "list", dict: "mapping", type(None): "null"}
+    names = {
+        bool: "boolean",
+        int: "integer",
+        float: "float",
+        str: "string",
+        list: "list",
+        dict: "mapping",
+        type(None): "null",
+    }
     return names.get(type(v), type(v).__name__)
 
 
@@ -193,8 +222,10 @@ def _float(v: Any, what: str = "") -> float:
         hint = ""
         if type(v) is int:
             with contextlib.suppress(OverflowError):  # beyond a double: no float to suggest
-                hint = (f"; write it as a YAML float, e.g. {float(v)!r} "
-                        "(ROS 2 parameters are strongly typed)")
+                hint = (
+                    f"; write it as a YAML float, e.g. {float(v)!r} "
+                    "(ROS 2 parameters are strongly typed)"
+                )
         elif isinstance(v, str):
             with contextlib.suppress(ValueError):
                 hint = f"; write it as a YAML float, e.g. {float(v)!r}"
@@ -242,8 +273,9 @@ def _unit3(v: Any) -> np.ndarray:
     if norm == 0.0:
         raise _Bad("must be a non-zero vector")
     if abs(norm - 1.0) > UNIT_TOLERANCE:
-        raise _Bad(f"must be a unit vector (norm within {UNIT_TOLERANCE:.0%} of 1), "
-                   f"got norm {norm:.4g}")
+        raise _Bad(
+            f"must be a unit vector (norm within {UNIT_TOLERANCE:.0%} of 1), got norm {norm:.4g}"
+        )
     return u / norm
 
 
@@ -266,6 +298,7 @@ def _str_list(v: Any) -> tuple[str, ...]:
 def _data_file(v: Any, base_dir: Path) -> str:
     """Packaged FIS name, or a path (contains '/') relative to ``base_dir``."""
     from .fis_files import resolve_fis
+
     if not _str(v):
         raise _Bad("must be a non-empty string")
     try:
@@ -292,8 +325,13 @@ _CONVERTERS: dict[str, Callable[[Any, Path], Any]] = {
 }
 
 
-def convert(param: Param, raw: Any, source: str, base_dir: Path | None = None,
-            error: type[ParameterError] = ParameterError) -> Any:
+def convert(
+    param: Param,
+    raw: Any,
+    source: str,
+    base_dir: Path | None = None,
+    error: type[ParameterError] = ParameterError,
+) -> Any:
     """The typed, checked value of ``raw`` for ``param``; raises ``error`` naming the key."""
     try:
         value = _CONVERTERS[param.kind](raw, Path(".") if base_dir is None else base_dir)
@@ -311,8 +349,12 @@ def convert(param: Param, raw: Any, source: str, base_dir: Path | None = None,
     return value
 
 
-def values_from(params: tuple[Param, ...], given: Mapping[str, Any], source: str,
-                error: type[ParameterError] = NodeParameterError) -> dict[str, Any]:
+def values_from(
+    params: tuple[Param, ...],
+    given: Mapping[str, Any],
+    source: str,
+    error: type[ParameterError] = NodeParameterError,
+) -> dict[str, Any]:
     """Typed values of ``params`` from ``given`` (defaults for absent keys)."""
     out: dict[str, Any] = {}
     for p in params:

@@ -141,13 +141,16 @@ class Scenario:
     def keep_out(self, inflation_deg: float = 0.0, samples: int | None = None) -> KeepOutGeometry:
         """Keep-out geometry of this scenario (``samples`` defaults to planner.obstacle_samples)."""
         return KeepOutGeometry(
-            self.boresights_body, self.half_angles_deg, self.directions_inertial,
+            self.boresights_body,
+            self.half_angles_deg,
+            self.directions_inertial,
             inflation_deg=inflation_deg,
             samples=self.planner.obstacle_samples if samples is None else samples,
         )
 
 
 # --- parsing -----------------------------------------------------------------------------
+
 
 def flatten_parameters(params: dict[Any, Any], source: str = "<dict>") -> dict[str, object]:
     """Nested parameter mapping -> ROS dotted names (``{"a": {"b": 1}} -> {"a.b": 1}``)."""
@@ -156,8 +159,11 @@ def flatten_parameters(params: dict[Any, Any], source: str = "<dict>") -> dict[s
     def walk(node: dict[Any, Any], prefix: str) -> None:
         for k, v in node.items():
             if not isinstance(k, str) or not k:
-                raise ScenarioError(source, prefix.rstrip(".") or None,
-                                    f"parameter names must be non-empty strings, got {k!r}")
+                raise ScenarioError(
+                    source,
+                    prefix.rstrip(".") or None,
+                    f"parameter names must be non-empty strings, got {k!r}",
+                )
             key = prefix + k
             if isinstance(v, dict):
                 walk(v, key + ".")
@@ -175,21 +181,24 @@ def is_ros_builtin(key: str) -> bool:
     return key in _ROS_BUILTIN_BOOLS or key.startswith("qos_overrides.")
 
 
-def scenario_keys(instrument_names: Sequence[str] = (),
-                  bright_object_names: Sequence[str] = ()) -> list[Param]:
+def scenario_keys(
+    instrument_names: Sequence[str] = (), bright_object_names: Sequence[str] = ()
+) -> list[Param]:
     """Every scenario row under its dotted key: the name lists first, then the table,
     then the per-name rows of the given names."""
     rows = [group_names_param(g) for g in GROUPS]
     rows += list(SCENARIO_PARAMETERS)
     for group, names in zip(GROUPS, (instrument_names, bright_object_names), strict=True):
-        rows += [p.renamed(f"{group}.{n}.{p.key}") for n in names
-                 for p in GROUP_PARAMETERS[group]]
+        rows += [p.renamed(f"{group}.{n}.{p.key}") for n in names for p in GROUP_PARAMETERS[group]]
     return rows
 
 
-def parse_scenario(params: dict[Any, Any], source: str = "<dict>",
-                   base_dir: str | Path | None = None,
-                   also_known: tuple[str, ...] = ()) -> Scenario:
+def parse_scenario(
+    params: dict[Any, Any],
+    source: str = "<dict>",
+    base_dir: str | Path | None = None,
+    also_known: tuple[str, ...] = (),
+) -> Scenario:
     """Validate a ``ros__parameters`` mapping (nested or dotted) and build a :class:`Scenario`.
 
     Relative data-file paths are resolved against ``base_dir`` (default: the directory
@@ -197,8 +206,9 @@ def parse_scenario(params: dict[Any, Any], source: str = "<dict>",
     parameters) and are only offered as "did you mean" suggestions.
     """
     if not isinstance(params, dict):
-        raise ScenarioError(source, None,
-                            f"ros__parameters must be a mapping, got {type_name(params)}")
+        raise ScenarioError(
+            source, None, f"ros__parameters must be a mapping, got {type_name(params)}"
+        )
     flat = flatten_parameters(params, source)
     base = Path(source).parent if base_dir is None else Path(base_dir)
 
@@ -223,8 +233,7 @@ def parse_scenario(params: dict[Any, Any], source: str = "<dict>",
         if group in groups and "." in rest and rest.split(".")[0] not in groups[group]:
             hint = f"; {rest.split('.')[0]!r} is not listed in {group}.names"
         else:
-            close = difflib.get_close_matches(key, sorted(known | set(also_known)), n=1,
-                                              cutoff=0.6)
+            close = difflib.get_close_matches(key, sorted(known | set(also_known)), n=1, cutoff=0.6)
             hint = f"; did you mean {close[0]!r}?" if close else ""
         raise ScenarioError(source, key, "unknown key" + hint)
 
@@ -233,20 +242,33 @@ def parse_scenario(params: dict[Any, Any], source: str = "<dict>",
     for row in SCENARIO_PARAMETERS:
         values[row.key] = value(row, row.default_for(values.get("planner.variant", "improved")))
     if values["sim_time_s"] < values["dt_s"]:
-        raise ScenarioError(source, "sim_time_s",
-                            f"must be >= dt_s ({values['dt_s']!r}), got {values['sim_time_s']!r}")
+        raise ScenarioError(
+            source,
+            "sim_time_s",
+            f"must be >= dt_s ({values['dt_s']!r}), got {values['sim_time_s']!r}",
+        )
     steps = values["sim_time_s"] / values["dt_s"]
     if steps > MAX_STEPS:
-        raise ScenarioError(source, "sim_time_s", (
-            f"too many steps: sim_time_s / dt_s = {steps:.3g}, at most {MAX_STEPS:,} "
-            "(a run keeps every step in memory)"))
+        raise ScenarioError(
+            source,
+            "sim_time_s",
+            (
+                f"too many steps: sim_time_s / dt_s = {steps:.3g}, at most {MAX_STEPS:,} "
+                "(a run keeps every step in memory)"
+            ),
+        )
 
     # 3. Per-instrument and per-object rows.
-    per_name = {g: [{p.key: value(p.renamed(f"{g}.{n}.{p.key}"), None)
-                     for p in GROUP_PARAMETERS[g]} for n in groups[g]]
-                for g in GROUPS}
-    planner = PlannerConfig(**{k.split(".", 1)[1]: v for k, v in values.items()
-                               if k.startswith("planner.")})
+    per_name = {
+        g: [
+            {p.key: value(p.renamed(f"{g}.{n}.{p.key}"), None) for p in GROUP_PARAMETERS[g]}
+            for n in groups[g]
+        ]
+        for g in GROUPS
+    }
+    planner = PlannerConfig(
+        **{k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("planner.")}
+    )
     scenario = Scenario(
         name=values["scenario_name"],
         source=str(source),
@@ -261,7 +283,8 @@ def parse_scenario(params: dict[Any, Any], source: str = "<dict>",
         half_angles_deg=_frozen(np.array([d["half_angle_deg"] for d in per_name["instruments"]])),
         bright_object_names=groups["bright_objects"],
         directions_inertial=_frozen(
-            np.array([d["direction_inertial"] for d in per_name["bright_objects"]])),
+            np.array([d["direction_inertial"] for d in per_name["bright_objects"]])
+        ),
         kp_over_j=values["controller.kp_over_j"],
         kd_over_j=values["controller.kd_over_j"],
         planner=planner,
@@ -274,10 +297,15 @@ def parse_scenario(params: dict[Any, Any], source: str = "<dict>",
         margins = geometry.margins_deg(getattr(scenario, key))
         i, j = np.unravel_index(int(np.argmin(margins)), margins.shape)
         if margins[i, j] <= 0.0:
-            raise ScenarioError(source, key, (
-                f"attitude is inside the keep-out cone of instrument "
-                f"{scenario.instrument_names[i]!r} and bright object "
-                f"{scenario.bright_object_names[j]!r} (margin {margins[i, j]:.1f} deg)"))
+            raise ScenarioError(
+                source,
+                key,
+                (
+                    f"attitude is inside the keep-out cone of instrument "
+                    f"{scenario.instrument_names[i]!r} and bright object "
+                    f"{scenario.bright_object_names[j]!r} (margin {margins[i, j]:.1f} deg)"
+                ),
+            )
     return scenario
 
 
@@ -306,10 +334,18 @@ def loads_scenario(text: str, source: str = "<text>") -> Scenario:
         raise ScenarioError(source, None, f"invalid YAML: {type(exc).__name__}: {exc}") from exc
     if doc is None:
         raise ScenarioError(source, None, "file is empty")
-    if (not isinstance(doc, dict) or list(doc) != ["/**"] or not isinstance(doc["/**"], dict)
-            or list(doc["/**"]) != ["ros__parameters"]):
-        raise ScenarioError(source, None, "top level must be exactly {'/**': "
-                            "{'ros__parameters': {...}}} (a ROS 2 parameters file for all nodes)")
+    if (
+        not isinstance(doc, dict)
+        or list(doc) != ["/**"]
+        or not isinstance(doc["/**"], dict)
+        or list(doc["/**"]) != ["ros__parameters"]
+    ):
+        raise ScenarioError(
+            source,
+            None,
+            "top level must be exactly {'/**': "
+            "{'ros__parameters': {...}}} (a ROS 2 parameters file for all nodes)",
+        )
     return parse_scenario(doc["/**"]["ros__parameters"], source)
 
 

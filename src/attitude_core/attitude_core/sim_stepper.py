@@ -47,18 +47,18 @@ Vector = npt.NDArray[np.float64]
 class Action(enum.Enum):
     """What a call decided."""
 
-    WAIT = "wait"          # start-up: not connected yet (or settling)
-    START = "start"        # start-up: connected; the first state is published
-    FAIL = "fail"          # start-up: not connected before startup_timeout_s
-    NONE = "none"          # nothing to do
-    IGNORE = "ignore"      # lockstep: a torque for another step
-    REJECT = "reject"      # an unusable torque; ``reason`` says why
-    ACCEPT = "accept"      # real time: the torque is applied from the next step on
-    RESEND = "resend"      # lockstep: publish the same state again
-    ADVANCE = "advance"    # the body advanced one step with the commanded torque
-    HOLD = "hold"          # lockstep timeout: advanced with the last torque held
-    ZERO = "zero"          # stale torque: advanced with zero torque
-    FINISH = "finish"      # the scenario time has ended; ``exit_code`` 0
+    WAIT = "wait"  # start-up: not connected yet (or settling)
+    START = "start"  # start-up: connected; the first state is published
+    FAIL = "fail"  # start-up: not connected before startup_timeout_s
+    NONE = "none"  # nothing to do
+    IGNORE = "ignore"  # lockstep: a torque for another step
+    REJECT = "reject"  # an unusable torque; ``reason`` says why
+    ACCEPT = "accept"  # real time: the torque is applied from the next step on
+    RESEND = "resend"  # lockstep: publish the same state again
+    ADVANCE = "advance"  # the body advanced one step with the commanded torque
+    HOLD = "hold"  # lockstep timeout: advanced with the last torque held
+    ZERO = "zero"  # stale torque: advanced with zero torque
+    FINISH = "finish"  # the scenario time has ended; ``exit_code`` 0
 
 
 @dataclass(frozen=True)
@@ -77,19 +77,21 @@ class StepperConfig:
 
     def __post_init__(self) -> None:
         if self.time_mode not in TIME_MODES:
-            raise ValueError(f"time_mode must be one of {list(TIME_MODES)}, "
-                             f"got {self.time_mode!r}")
+            raise ValueError(f"time_mode must be one of {list(TIME_MODES)}, got {self.time_mode!r}")
 
     @classmethod
-    def from_parameters(cls, values: dict[str, Any], dt_s: float,
-                        n_steps: int) -> StepperConfig:
+    def from_parameters(cls, values: dict[str, Any], dt_s: float, n_steps: int) -> StepperConfig:
         """From the simulator node's parameter values (dotted keys)."""
-        return cls(dt_s=dt_s, n_steps=n_steps, time_mode=values["time_mode"],
-                   resend_period_s=values["lockstep.resend_period_s"],
-                   torque_timeout_s=values["lockstep.torque_timeout_s"],
-                   max_held_steps=values["lockstep.max_held_steps"],
-                   torque_stale_s=values["realtime.torque_stale_s"],
-                   startup_timeout_s=values["startup_timeout_s"])
+        return cls(
+            dt_s=dt_s,
+            n_steps=n_steps,
+            time_mode=values["time_mode"],
+            resend_period_s=values["lockstep.resend_period_s"],
+            torque_timeout_s=values["lockstep.torque_timeout_s"],
+            max_held_steps=values["lockstep.max_held_steps"],
+            torque_stale_s=values["realtime.torque_stale_s"],
+            startup_timeout_s=values["startup_timeout_s"],
+        )
 
 
 @dataclass(frozen=True)
@@ -128,12 +130,12 @@ class SimStepper:
         self.dt_ns = int(round(config.dt_s * 1e9))
         self.k = 0
         self.torque: Vector = np.zeros(3)
-        self.waiting_stamp: int | None = None   # lockstep: the state awaiting its torque
-        self.state_stamp: int | None = None     # stamp of the state last published
+        self.waiting_stamp: int | None = None  # lockstep: the state awaiting its torque
+        self.state_stamp: int | None = None  # stamp of the state last published
         self.sent_at = self.first_sent_at = 0.0
         self.resends = self.timeouts = self.rejected = 0
-        self.held_steps = 0                     # lockstep: consecutive timed-out steps
-        self.torque_stamp = -1                  # real time: stamp of the applied torque
+        self.held_steps = 0  # lockstep: consecutive timed-out steps
+        self.torque_stamp = -1  # real time: stamp of the applied torque
         self.torque_received_at: float | None = None
         self.stale = False
         self.done = False
@@ -143,8 +145,9 @@ class SimStepper:
         self.started_at: float | None = None
 
     @classmethod
-    def from_scenario(cls, scenario: Scenario, parameters: dict[str, Any],
-                      created: float) -> SimStepper:
+    def from_scenario(
+        cls, scenario: Scenario, parameters: dict[str, Any], created: float
+    ) -> SimStepper:
         """The stepper of a scenario's body, with the simulator node's parameter values."""
         config = StepperConfig.from_parameters(parameters, scenario.dt_s, scenario.n_steps)
         body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
@@ -165,8 +168,11 @@ class SimStepper:
             self.ready_since = None
             if now - self.created > self.cfg.startup_timeout_s:
                 self._finish(1)
-                return Decision(Action.FAIL, exit_code=1, logs=[(
-                    "error", f"graph not connected after {self.cfg.startup_timeout_s} s")])
+                return Decision(
+                    Action.FAIL,
+                    exit_code=1,
+                    logs=[("error", f"graph not connected after {self.cfg.startup_timeout_s} s")],
+                )
             return Decision(Action.WAIT)
         if self.ready_since is None:
             self.ready_since = now
@@ -189,8 +195,9 @@ class SimStepper:
             return Decision(Action.IGNORE)
         if not self.lockstep:
             if stamp_ns < self.torque_stamp:
-                return self._reject(f"stamp {stamp_ns} ns is older than the applied "
-                                    f"torque's {self.torque_stamp} ns")
+                return self._reject(
+                    f"stamp {stamp_ns} ns is older than the applied torque's {self.torque_stamp} ns"
+                )
             self.torque, self.torque_stamp = u, stamp_ns
             self.torque_received_at = now
             return Decision(Action.ACCEPT, logs=self._set_stale(False))
@@ -222,9 +229,14 @@ class SimStepper:
                 self.torque = np.zeros(3)
                 action = Action.ZERO
             else:
-                logs = [("warning", f"no torque for step {self.k} after "
-                                    f"{self.cfg.torque_timeout_s} s; holding the last torque "
-                                    f"{self.torque.tolist()} N m")]
+                logs = [
+                    (
+                        "warning",
+                        f"no torque for step {self.k} after "
+                        f"{self.cfg.torque_timeout_s} s; holding the last torque "
+                        f"{self.torque.tolist()} N m",
+                    )
+                ]
                 action = Action.HOLD
             decision = self._advance(now, self.torque, action)
             decision.logs[:0] = logs
@@ -246,8 +258,12 @@ class SimStepper:
             return decision
         self.body.step(torque, self.cfg.dt_s)
         self.k += 1
-        return Decision(action, applied=applied, applied_stamp_ns=applied_stamp,
-                        state=self._state(now, self.k * self.dt_ns))
+        return Decision(
+            action,
+            applied=applied,
+            applied_stamp_ns=applied_stamp,
+            state=self._state(now, self.k * self.dt_ns),
+        )
 
     # -- real time ------------------------------------------------------------------
 
@@ -256,8 +272,10 @@ class SimStepper:
             return self._end(now, None)
         logs: list[tuple[str, str]] = []
         action = Action.ADVANCE
-        if (self.torque_received_at is not None
-                and now - self.torque_received_at > self.cfg.torque_stale_s):
+        if (
+            self.torque_received_at is not None
+            and now - self.torque_received_at > self.cfg.torque_stale_s
+        ):
             logs = self._set_stale(True)
             self.torque = np.zeros(3)
             self.torque_received_at = None
@@ -269,8 +287,9 @@ class SimStepper:
             self.body.step(self.torque, self.cfg.dt_s)
         state = self._state(now, clock_ns)
         self.k += 1
-        return Decision(action, applied=applied, applied_stamp_ns=applied_stamp, state=state,
-                        logs=logs)
+        return Decision(
+            action, applied=applied, applied_stamp_ns=applied_stamp, state=state, logs=logs
+        )
 
     # -- shared ---------------------------------------------------------------------
 
@@ -280,8 +299,9 @@ class SimStepper:
         if self.lockstep:
             self.waiting_stamp = stamp_ns
         self.sent_at = self.first_sent_at = now
-        return StateOut(self.k, stamp_ns, clock_ns, self.body.sigma_bn.copy(),
-                        self.body.omega_b.copy())
+        return StateOut(
+            self.k, stamp_ns, clock_ns, self.body.sigma_bn.copy(), self.body.omega_b.copy()
+        )
 
     def _reject(self, reason: str) -> Decision:
         self.rejected += 1
@@ -290,8 +310,9 @@ class SimStepper:
     def _set_stale(self, stale: bool) -> list[tuple[str, str]]:
         logs = []
         if stale and not self.stale:
-            logs.append(("error", "torque is stale: applying zero torque until a controller "
-                                  "answers again"))
+            logs.append(
+                ("error", "torque is stale: applying zero torque until a controller answers again")
+            )
         elif self.stale and not stale:
             logs.append(("info", "torque received again"))
         self.stale = stale
@@ -301,9 +322,11 @@ class SimStepper:
         self._finish(0)
         wall = now - (self.started_at if self.started_at is not None else now)
         n = self.cfg.n_steps
-        text = (f"scenario time ended: {n} steps in {wall:.3f} s wall "
-                f"({n / max(wall, 1e-9):.0f} steps/s); {self.resends} re-sends, "
-                f"{self.timeouts} torque timeouts, {self.rejected} rejected torques")
+        text = (
+            f"scenario time ended: {n} steps in {wall:.3f} s wall "
+            f"({n / max(wall, 1e-9):.0f} steps/s); {self.resends} re-sends, "
+            f"{self.timeouts} torque timeouts, {self.rejected} rejected torques"
+        )
         return Decision(Action.FINISH, applied=applied, exit_code=0, logs=[("info", text)])
 
     def _finish(self, code: int) -> None:

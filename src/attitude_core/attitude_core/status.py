@@ -34,8 +34,9 @@ class PlannerStatus(enum.StrEnum):
     level: DiagnosticLevel
     ends_slew: bool
 
-    def __new__(cls, value: str, code: int, level: DiagnosticLevel,
-                ends_slew: bool) -> PlannerStatus:
+    def __new__(
+        cls, value: str, code: int, level: DiagnosticLevel, ends_slew: bool
+    ) -> PlannerStatus:
         member = str.__new__(cls, value)
         member._value_ = value
         member.code = code
@@ -52,6 +53,14 @@ class PlannerStatus(enum.StrEnum):
     INFEASIBLE = ("infeasible", 3, DiagnosticLevel.ERROR, True)
     """The goal cannot be reached. Reserved for a feasibility check; the FEPF alone
     never reports it."""
+
+    @classmethod
+    def parse(cls, text: str) -> PlannerStatus:
+        """The status whose value is ``text`` (ValueError if none)."""
+        for status in cls:
+            if status.value == text:
+                return status
+        raise ValueError(f"{text!r} is not a planner status {[s.value for s in cls]}")
 
     @classmethod
     def from_code(cls, code: int) -> PlannerStatus:

@@ -34,11 +34,11 @@ PLANNER_STATUS = "/planner/status"
 KEEP_OUT_MARGIN = "/planner/keep_out_margin_deg"
 DIAGNOSTICS = "/diagnostics"
 TORQUE = "/controller/torque"
-APPLIED_TORQUE = "/spacecraft/applied_torque"   # what the simulator applied over the step
+APPLIED_TORQUE = "/spacecraft/applied_torque"  # what the simulator applied over the step
 
-INERTIAL_FRAME = "inertial"   # N
-BODY_FRAME = "body"           # B
-TARGET_FRAME = "target"       # R: the planner's target attitude
+INERTIAL_FRAME = "inertial"  # N
+BODY_FRAME = "body"  # B
+TARGET_FRAME = "target"  # R: the planner's target attitude
 
 # Depth of the nodes' subscription queues (keep-last).
 HISTORY_DEPTH = 200
@@ -62,8 +62,8 @@ def stamp_ns(stamp: Stamp) -> int:
 
 class Topic(NamedTuple):
     name: str
-    type_name: str      # pkg/msg/Type
-    stamped: bool       # first field is a header (or a Time): the recorder logs at that stamp
+    type_name: str  # pkg/msg/Type
+    stamped: bool  # first field is a header (or a Time): the recorder logs at that stamp
     latched: bool = False
 
 

@@ -29,12 +29,12 @@ class RunResult:
     t: np.ndarray
     sigma_bn: np.ndarray
     omega_b: np.ndarray
-    torque_b: np.ndarray          # torque applied over [t_k, t_k+1); last row repeats
+    torque_b: np.ndarray  # torque applied over [t_k, t_k+1); last row repeats
     sigma_t: np.ndarray
     omega_t: np.ndarray
     obstacle_distance_mrp: np.ndarray
-    planner_status: np.ndarray    # PlannerStatus.code
-    planner_step_s: np.ndarray    # wall time of each planner step call
+    planner_status: np.ndarray  # PlannerStatus.code
+    planner_step_s: np.ndarray  # wall time of each planner step call
     wall_time_s: float
 
 
@@ -44,8 +44,13 @@ def summarize(run: RunResult) -> dict[str, Any]:
     geometry = sc.keep_out()
     min_margin, t_min = dense_min_margin_deg(geometry, run.t, run.sigma_bn, run.omega_b)
     reached, t_reach, err_deg = arrival_time(
-        run.t, run.sigma_bn, run.omega_b, sc.desired_mrp,
-        sc.arrival.attitude_tol_deg, sc.arrival.rate_tol_rad_s)
+        run.t,
+        run.sigma_bn,
+        run.omega_b,
+        sc.desired_mrp,
+        sc.arrival.attitude_tol_deg,
+        sc.arrival.rate_tol_rad_s,
+    )
     arrived = np.flatnonzero(run.planner_status == PlannerStatus.ARRIVED.code)
     stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
     per_pair = geometry.margins_deg(run.sigma_bn).min(axis=0)
@@ -63,7 +68,8 @@ def summarize(run: RunResult) -> dict[str, Any]:
         "t_min_margin_s": round(t_min, 9),
         "min_margin_deg_per_pair": {
             f"{sc.instrument_names[i]}/{sc.bright_object_names[j]}": float(per_pair[i, j])
-            for i in range(len(sc.instrument_names)) for j in range(len(sc.bright_object_names))
+            for i in range(len(sc.instrument_names))
+            for j in range(len(sc.bright_object_names))
         },
         "path_length_mrp": path_length_mrp(run.sigma_bn),
         "target_path_length_mrp": path_length_mrp(run.sigma_t),

@@ -49,4 +49,4 @@ def load_strict(text_or_stream: str | bytes | IO[str] | IO[bytes]) -> Any:
 
     Raises :class:`yaml.YAMLError` (a duplicate key: its subclass ``ConstructorError``).
     """
-    return yaml.load(text_or_stream, Loader=StrictLoader)  # noqa: S506 (safe loader subclass)
+    return yaml.load(text_or_stream, Loader=StrictLoader)

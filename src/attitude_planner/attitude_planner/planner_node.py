@@ -26,6 +26,7 @@ from std_msgs.msg import Float64, String
 
 from attitude_core import diagnostics, node_graph
 from attitude_core.fepf import FepfPlanner, PlannerOutput
+from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
 from attitude_ros.convert import bad_quaternion, mrp_from_quaternion, reject, set_vector3, stamp_ns
 from attitude_ros.params import declare_scenario_node
@@ -39,9 +40,9 @@ class FepfPlannerNode(Node):
         self.exact = self.scenario.keep_out(samples=16)
         FepfPlanner.from_scenario(self.scenario)  # builds the FIS lookup tables up front
         self.planner: FepfPlanner | None = None
-        self.last_stamp_ns = None
+        self.last_stamp_ns: int | None = None
         self.rejected = 0
-        self.status = None
+        self.status: PlannerStatus | None = None
         pub = self.create_publisher
         self.pub_mrp = pub(Vector3Stamped, c.TARGET_MRP, c.qos(c.topic(c.TARGET_MRP)))
         self.pub_rate = pub(Vector3Stamped, c.TARGET_RATE, c.qos(c.topic(c.TARGET_RATE)))
@@ -53,12 +54,17 @@ class FepfPlannerNode(Node):
         self.out_rate.header.frame_id = c.TARGET_FRAME
         self.out_margin = Float64()
         self.out_diag = None
-        self.create_subscription(QuaternionStamped, c.ATTITUDE, self.on_attitude,
-                                 c.qos(c.topic(c.ATTITUDE), subscriber=True))
+        self.create_subscription(
+            QuaternionStamped,
+            c.ATTITUDE,
+            self.on_attitude,
+            c.qos(c.topic(c.ATTITUDE), subscriber=True),
+        )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': FEPF variant {self.scenario.planner.variant}, "
             f"{len(self.scenario.instrument_names)} instrument(s), "
-            f"{len(self.scenario.bright_object_names)} bright object(s)")
+            f"{len(self.scenario.bright_object_names)} bright object(s)"
+        )
 
     def on_attitude(self, msg: QuaternionStamped) -> None:
         stamp = stamp_ns(msg.header.stamp)
@@ -66,8 +72,11 @@ class FepfPlannerNode(Node):
             if stamp == self.last_stamp_ns:
                 self.publish()  # lockstep re-send: same state, same answer
             else:
-                reject(self, c.ATTITUDE, f"stamp {stamp} ns is older than the last state "
-                                         f"{self.last_stamp_ns} ns")
+                reject(
+                    self,
+                    c.ATTITUDE,
+                    f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns",
+                )
             return
         reason = bad_quaternion(msg.quaternion)
         if reason:
@@ -101,11 +110,21 @@ class FepfPlannerNode(Node):
 
     def diagnostics(self, stamp, out: PlannerOutput, step_s: float) -> DiagnosticArray:
         report = diagnostics.PlannerDiagnostics(
-            out.status, step_s, out.obstacle_distance_mrp, self.out_margin.data, out.m_a,
-            out.m_r, self.rejected)
-        status = DiagnosticStatus(level=bytes([out.status.level]), name=diagnostics.STATUS_NAME,
-                                  message=out.status.value, hardware_id=diagnostics.HARDWARE_ID,
-                                  values=[KeyValue(key=k, value=v) for k, v in report.values()])
+            out.status,
+            step_s,
+            out.obstacle_distance_mrp,
+            self.out_margin.data,
+            out.m_a,
+            out.m_r,
+            self.rejected,
+        )
+        status = DiagnosticStatus(
+            level=bytes([out.status.level]),
+            name=diagnostics.STATUS_NAME,
+            message=out.status.value,
+            hardware_id=diagnostics.HARDWARE_ID,
+            values=[KeyValue(key=k, value=v) for k, v in report.values()],
+        )
         diag = DiagnosticArray(status=[status])
         diag.header.stamp = stamp
         return diag

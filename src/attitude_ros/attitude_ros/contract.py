@@ -3,11 +3,16 @@ and message classes."""
 
 from __future__ import annotations
 
-from attitude_core.topics import *  # noqa: F401,F403 - the contract's names, re-exported
+from typing import TYPE_CHECKING, Any
+
+from attitude_core.topics import *  # noqa: F403 - the contract's names, re-exported
 from attitude_core.topics import CLOCK, HISTORY_DEPTH, TOPICS, Topic  # noqa: F401
 
+if TYPE_CHECKING:
+    from rclpy.qos import QoSProfile
 
-def qos(topic: Topic | None = None, *, subscriber: bool = False):
+
+def qos(topic: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:
     """QoS of a contract topic.
 
     Publishers: reliable, volatile, keep-all: a sample leaves the writer only when every
@@ -18,12 +23,17 @@ def qos(topic: Topic | None = None, *, subscriber: bool = False):
     ``/clock`` publisher also serves rclpy's best-effort ``/clock`` listeners.
     """
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
     latched = topic is not None and topic.latched
+    # rclpy leaves QoSProfile.__init__(**kwargs) unannotated: hence the ignores.
     if latched:
-        return QoSProfile(history=HistoryPolicy.KEEP_LAST, depth=1,
-                          reliability=ReliabilityPolicy.RELIABLE,
-                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    return QoSProfile(
+        return QoSProfile(
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1,  # type: ignore[no-untyped-call]
+            reliability=ReliabilityPolicy.RELIABLE,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL,
+        )
+    return QoSProfile(  # type: ignore[no-untyped-call]
         history=HistoryPolicy.KEEP_LAST if subscriber else HistoryPolicy.KEEP_ALL,
         depth=HISTORY_DEPTH,
         reliability=ReliabilityPolicy.RELIABLE,
@@ -31,20 +41,23 @@ def qos(topic: Topic | None = None, *, subscriber: bool = False):
     )
 
 
-def recorder_qos(topic: Topic):
+def recorder_qos(topic: Topic) -> QoSProfile:
     """QoS of the recorder's subscription: keep-all, and transient-local on latched topics."""
     from rclpy.qos import HistoryPolicy
+
     profile = qos(topic)
     if not topic.latched:
         profile.history = HistoryPolicy.KEEP_ALL
     return profile
 
 
-def message_class(type_name: str):
+def message_class(type_name: str) -> type[Any]:
     """The Python class of ``pkg/msg/Type``."""
     import importlib
+
     pkg, _, name = type_name.split("/")
-    return getattr(importlib.import_module(f"{pkg}.msg"), name)
+    cls: type[Any] = getattr(importlib.import_module(f"{pkg}.msg"), name)
+    return cls
 
 
 def topic(name: str) -> Topic:

@@ -6,53 +6,61 @@ Stamps are handled as integer nanoseconds so that lockstep stamps ``k * dt`` are
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from attitude_core.mrp import mrp_from_quat, quat_from_mrp
-from attitude_core.topics import NS_PER_S, stamp_ns  # noqa: F401 - re-exported for the nodes
+from attitude_core.mrp import Vec3Like, mrp_from_quat, quat_from_mrp
+from attitude_core.topics import NS_PER_S, Stamp
+from attitude_core.topics import stamp_ns as stamp_ns  # re-exported for the nodes
+
+# ROS messages, nodes and loggers are typed Any: the message packages ship no type
+# information, and only their attributes are used here.
 
 
-def set_stamp(stamp, ns: int) -> None:
+def set_stamp(stamp: Stamp, ns: int) -> None:
     """Write integer nanoseconds into a ``builtin_interfaces/Time`` in place."""
     stamp.sec, stamp.nanosec = divmod(int(ns), NS_PER_S)
 
 
-def vector3(v) -> np.ndarray:
+def vector3(v: Any) -> npt.NDArray[np.float64]:
     """``geometry_msgs/Vector3`` -> array (3,)."""
     return np.array((v.x, v.y, v.z))
 
 
-def set_vector3(v, a) -> None:
+def set_vector3(v: Any, a: Vec3Like) -> None:
     v.x, v.y, v.z = float(a[0]), float(a[1]), float(a[2])
 
 
-def quaternion_xyzw(q) -> np.ndarray:
+def quaternion_xyzw(q: Any) -> npt.NDArray[np.float64]:
     return np.array((q.x, q.y, q.z, q.w))
 
 
-def set_quaternion_from_mrp(q, sigma_bn) -> None:
+def set_quaternion_from_mrp(q: Any, sigma_bn: npt.ArrayLike) -> None:
     """Body orientation in the inertial frame, ``(x, y, z, w)`` with ``w >= 0``."""
     x, y, z, w = quat_from_mrp(np.asarray(sigma_bn, dtype=float))
     q.x, q.y, q.z, q.w = float(x), float(y), float(z), float(w)
 
 
-def mrp_from_quaternion(q) -> np.ndarray:
+def mrp_from_quaternion(q: Any) -> npt.NDArray[np.float64]:
     """``sigma_BN`` (``|sigma| <= 1``) from a quaternion message (normalised first)."""
     return mrp_from_quat(quaternion_xyzw(q))
 
 
-def reject(node, topic: str, reason: str, count: int | None = None) -> None:
+def reject(node: Any, topic: str, reason: str, count: int | None = None) -> None:
     """Log, throttled, a refused incoming message; count it in ``node.rejected`` unless
     the caller's core already counted it (``count``: the total so far)."""
     if count is None:
         node.rejected += 1
         count = node.rejected
-    node.get_logger().warning(f"rejected {topic} message ({count} so far): {reason}",
-                              throttle_duration_sec=1.0)
+    node.get_logger().warning(
+        f"rejected {topic} message ({count} so far): {reason}", throttle_duration_sec=1.0
+    )
 
 
-def log_events(logger, events) -> None:
+def log_events(logger: Any, events: Iterable[tuple[str, str]]) -> None:
     """Log the ``(level, text)`` pairs a core state machine returned."""
     for level, text in events:  # one call site per severity, as rclpy's logger requires
         if level == "error":
@@ -63,14 +71,14 @@ def log_events(logger, events) -> None:
             logger.info(text)
 
 
-def bad_vector(values, name: str) -> str | None:
+def bad_vector(values: Sequence[float] | npt.NDArray[np.float64], name: str) -> str | None:
     """Reason a vector read from a message is unusable (non-finite), else None."""
     if not all(math.isfinite(x) for x in values):
         return f"{name} has a non-finite element {list(values)}"
     return None
 
 
-def bad_quaternion(q, tolerance: float = 1e-3) -> str | None:
+def bad_quaternion(q: Any, tolerance: float = 1e-3) -> str | None:
     """Reason a quaternion message is unusable: non-finite, zero or not of unit norm."""
     values = (q.x, q.y, q.z, q.w)
     reason = bad_vector(values, "orientation")

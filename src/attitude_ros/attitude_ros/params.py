@@ -41,15 +41,19 @@ _TYPES = {
 
 def descriptor(row: Param) -> ParameterDescriptor:
     """The ROS 2 descriptor of a row (closed bounds as a range; the exact rule in text)."""
-    d = ParameterDescriptor(name=row.key, type=_TYPES[row.ros_type][1],
-                            description=row.full_description, read_only=row.read_only)
+    d = ParameterDescriptor(
+        name=row.key,
+        type=_TYPES[row.ros_type][1],
+        description=row.full_description,
+        read_only=row.read_only,
+    )
     closed = row.bounds.closed() if row.bounds is not None else None
     if closed is not None and row.ros_type == "double":
-        d.floating_point_range = [FloatingPointRange(
-            from_value=float(closed[0]), to_value=float(closed[1]), step=0.0)]
+        d.floating_point_range = [
+            FloatingPointRange(from_value=float(closed[0]), to_value=float(closed[1]), step=0.0)
+        ]
     elif closed is not None and row.ros_type == "integer":
-        d.integer_range = [IntegerRange(from_value=int(closed[0]), to_value=int(closed[1]),
-                                        step=1)]
+        d.integer_range = [IntegerRange(from_value=int(closed[0]), to_value=int(closed[1]), step=1)]
     return d
 
 
@@ -60,13 +64,15 @@ def _plain(value: Any) -> Any:
     return list(value)
 
 
-def _declare(node: Node, row: Param, source: str, error: type[ParameterError],
-             with_default: bool) -> Any:
+def _declare(
+    node: Node, row: Param, source: str, error: type[ParameterError], with_default: bool
+) -> Any:
     """Declare one row; its value (None when unset). Scenario rows are declared without
     their default (``with_default`` False): unset, the loader supplies it. rclpy's
     refusals (wrong type, out of range) become ``error`` naming the key."""
+    value: object  # a Parameter.Type (declared typed and unset) or the default value
     if row.required or not with_default:
-        value = _TYPES[row.ros_type][0]   # typed and unset
+        value = _TYPES[row.ros_type][0]  # typed and unset
     else:
         value = list(row.default) if isinstance(row.default, tuple) else row.default
     try:
@@ -78,8 +84,9 @@ def _declare(node: Node, row: Param, source: str, error: type[ParameterError],
         raise error(source, row.key, f"{type(exc).__name__}: {exc}") from exc
 
 
-def declare_node_parameters(node: Node, table: NodeParameters
-                            ) -> tuple[dict[str, Any], Scenario | None]:
+def declare_node_parameters(
+    node: Node, table: NodeParameters
+) -> tuple[dict[str, Any], Scenario | None]:
     """Declare ``table`` on ``node``; return (own values by key, the validated scenario
     or None when the node takes none).
 
@@ -125,8 +132,9 @@ def declare_node_parameters(node: Node, table: NodeParameters
     for name, parameter in overrides.items():
         if not node.has_parameter(name):
             flat[name] = _plain(parameter.value)
-    scenario = parse_scenario(flat, source, base_dir=os.getcwd(),
-                              also_known=tuple(r.key for r in table.own))
+    scenario = parse_scenario(
+        flat, source, base_dir=os.getcwd(), also_known=tuple(r.key for r in table.own)
+    )
     return own, scenario
 
 

@@ -20,6 +20,7 @@ from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
+from rclpy.utilities import ok as rclpy_ok  # rclpy.ok, where it is defined
 
 from attitude_core.parameters import ParameterError
 from attitude_core.scenario import ScenarioError
@@ -36,11 +37,14 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     ``drained()``, polled after SIGINT/SIGTERM while queued messages are still taken.
     """
     stop = []
-    previous = {s: signal.signal(s, lambda signum, frame: stop.append(signum))
-                for s in (signal.SIGINT, signal.SIGTERM)}
+    previous = {
+        s: signal.signal(s, lambda signum, frame: stop.append(signum))
+        for s in (signal.SIGINT, signal.SIGTERM)
+    }
     try:
-        rclpy.init(args=sys.argv if args is None else args,
-                   signal_handler_options=SignalHandlerOptions.NO)
+        rclpy.init(
+            args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO
+        )
     except RCLError as err:  # rcl refuses the command line, e.g. an unparsable params file
         program = os.path.basename(sys.argv[0]) if sys.argv else "node"
         print(f"[{program}] error: {err}", file=sys.stderr, flush=True)
@@ -51,15 +55,16 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
     code = EXIT_OK
     try:
         node = node_factory()
-        from rclpy.experimental import EventsExecutor
+        from rclpy.experimental.events_executor import EventsExecutor
+
         executor = EventsExecutor()
         executor.add_node(node)
-        while not stop and rclpy.ok() and not getattr(node, "done", False):
+        while not stop and rclpy_ok() and not getattr(node, "done", False):
             executor.spin_once(timeout_sec=0.1)
         drained = getattr(node, "drained", None)
         if stop and drained is not None:  # take what is already queued, for up to 1.5 s
             deadline = time.monotonic() + 1.5
-            while rclpy.ok() and time.monotonic() < deadline and not drained():
+            while rclpy_ok() and time.monotonic() < deadline and not drained():
                 executor.spin_once(timeout_sec=0.05)
         code = getattr(node, "exit_code", EXIT_OK)
     except ParameterError as err:  # a scenario key or a node-own parameter
@@ -74,8 +79,8 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
             close = getattr(node, "close", None)
             if close is not None:
                 close()
-            node.destroy_node()
-        if rclpy.ok():
+            node.destroy_node()  # type: ignore[no-untyped-call]  # unannotated in rclpy
+        if rclpy_ok():
             rclpy.shutdown()
         for s, handler in previous.items():
             signal.signal(s, handler)

@@ -21,7 +21,7 @@ import os
 import threading
 import time
 from collections.abc import Iterator
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, cast
 
 import yaml
 from mcap.reader import make_reader
@@ -63,8 +63,15 @@ _COMPRESSION = {
 _RELIABILITY = ("reliable", "best_effort", "system_default", "best_available")
 _DURABILITY = ("volatile", "transient_local", "system_default", "best_available")
 _QOS_KEYS = (
-    "history", "depth", "reliability", "durability", "deadline", "lifespan",
-    "liveliness", "liveliness_lease_duration", "avoid_ros_namespace_conventions",
+    "history",
+    "depth",
+    "reliability",
+    "durability",
+    "deadline",
+    "lifespan",
+    "liveliness",
+    "liveliness_lease_duration",
+    "avoid_ros_namespace_conventions",
 )
 
 
@@ -78,8 +85,9 @@ class BagMessage(NamedTuple):
     msg: Any
 
 
-def qos_profile_yaml(reliability: str, durability: str, depth: int,
-                     history: str = "keep_last") -> str:
+def qos_profile_yaml(
+    reliability: str, durability: str, depth: int, history: str = "keep_last"
+) -> str:
     """One offered QoS profile as Jazzy's rosbag2 serializes it (a YAML list of one).
 
     ``reliability``: ``'reliable'`` or ``'best_effort'``; ``durability``:
@@ -157,9 +165,7 @@ class BagWriter:
             )
         bag_dir = os.path.abspath(os.fspath(bag_dir))
         if os.path.lexists(bag_dir) and not (os.path.isdir(bag_dir) and not os.listdir(bag_dir)):
-            raise FileExistsError(
-                f"bag directory {bag_dir!r} exists and is not an empty directory"
-            )
+            raise FileExistsError(f"bag directory {bag_dir!r} exists and is not an empty directory")
         os.makedirs(bag_dir, exist_ok=True)
 
         self.bag_dir = bag_dir
@@ -260,6 +266,7 @@ class BagWriter:
             if self._start_ns is None:
                 self._start_ns = self._end_ns = log_time_ns
             else:
+                assert self._end_ns is not None  # set together with _start_ns
                 self._start_ns = min(self._start_ns, log_time_ns)
                 self._end_ns = max(self._end_ns, log_time_ns)
 
@@ -277,7 +284,10 @@ class BagWriter:
             self._check_open()
             self._guarded(
                 self._mcap.add_attachment,
-                create_time=now_ns, log_time=now_ns, name=name, media_type=media_type,
+                create_time=now_ns,
+                log_time=now_ns,
+                name=name,
+                media_type=media_type,
                 data=bytes(data),
             )
 
@@ -337,7 +347,8 @@ class BagWriter:
         """``rosbag2_bagfile_information`` as Jazzy's rosbag2 writes it (key order included)."""
         count = self.message_count
         start = TIME_MAX_NS if self._start_ns is None else self._start_ns
-        duration = 0 if self._start_ns is None else self._end_ns - self._start_ns
+        # _end_ns is set together with _start_ns
+        duration = 0 if self._start_ns is None else cast(int, self._end_ns) - self._start_ns
         return {
             "version": BAG_FORMAT_VERSION,
             "storage_identifier": "mcap",
@@ -375,7 +386,8 @@ class BagWriter:
     def _write_metadata_yaml(self) -> None:
         """Replace metadata.yaml atomically (temp file, fsync, os.replace)."""
         text = yaml.safe_dump(
-            {"rosbag2_bagfile_information": self._metadata()}, sort_keys=False,
+            {"rosbag2_bagfile_information": self._metadata()},
+            sort_keys=False,
             default_flow_style=False,
         )
         path = os.path.join(self.bag_dir, METADATA_FILE)
@@ -453,8 +465,11 @@ def read_bag(bag_dir: str, topics: list[str] | None = None) -> Iterator[BagMessa
             reader = make_reader(f, decoder_factories=[DecoderFactory()])
             streams.append(
                 BagMessage(
-                    channel.topic, schema.name if schema else "",
-                    message.log_time, message.publish_time, decoded,
+                    channel.topic,
+                    schema.name if schema else "",
+                    message.log_time,
+                    message.publish_time,
+                    decoded,
                 )
                 for schema, channel, message, decoded in reader.iter_decoded_messages(
                     topics=topics, log_time_order=True
@@ -538,6 +553,9 @@ def recover_messages(bag_dir: str, topics: list[str] | None = None) -> Iterator[
                         )
                     decoders[record.channel_id] = decoder
                 yield BagMessage(
-                    channel.topic, schema.name if schema else "",
-                    record.log_time, record.publish_time, decoders[record.channel_id](record.data),
+                    channel.topic,
+                    schema.name if schema else "",
+                    record.log_time,
+                    record.publish_time,
+                    decoders[record.channel_id](record.data),
                 )

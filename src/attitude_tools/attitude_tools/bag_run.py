@@ -12,6 +12,7 @@ target rows. ``t`` is relative to the first stamp.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -33,16 +34,15 @@ from attitude_core.trajectory import RunResult, summarize
 
 from .bag import read_attachment, read_bag
 
-_TOPICS = (ATTITUDE, ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE, TORQUE, APPLIED_TORQUE,
-           DIAGNOSTICS)
+_TOPICS = (ATTITUDE, ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE, TORQUE, APPLIED_TORQUE, DIAGNOSTICS)
 
 
 @dataclass
 class BagRun:
     run: RunResult
-    stamps_ns: np.ndarray          # state stamp of each step
-    receive_wall_ns: np.ndarray    # recorder receive time of each step's attitude
-    incomplete_steps: int          # state stamps after the last complete step
+    stamps_ns: np.ndarray  # state stamp of each step
+    receive_wall_ns: np.ndarray  # recorder receive time of each step's attitude
+    incomplete_steps: int  # state stamps after the last complete step
 
 
 def _xyz(v) -> tuple[float, float, float]:
@@ -55,12 +55,13 @@ def scenario_from_bag(bag_dir: str) -> Scenario:
     return loads_scenario(text, f"{bag_dir}: attachment scenario.yaml")
 
 
-def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
-                 wall_time_s: float = float("nan")) -> BagRun:
+def run_from_bag(
+    bag_dir: str, scenario: Scenario | None = None, wall_time_s: float = float("nan")
+) -> BagRun:
     """Rebuild the sampled trajectory of a recorded run (see module docstring)."""
     if scenario is None:
         scenario = scenario_from_bag(bag_dir)
-    by_topic: dict[str, dict[int, object]] = {t: {} for t in _TOPICS}
+    by_topic: dict[str, dict[int, Any]] = {t: {} for t in _TOPICS}  # deserialized messages
     wall: dict[int, int] = {}
     for m in read_bag(bag_dir, list(by_topic)):
         stamp = stamp_ns(m.msg.header.stamp)
@@ -69,10 +70,13 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
             wall.setdefault(stamp, m.publish_time_ns)
     states = sorted(by_topic[ATTITUDE])
     applied = by_topic[APPLIED_TORQUE]
-    torque = {s: applied.get(s, by_topic[TORQUE].get(s)) for s in states}
+    torque: dict[int, Any] = {s: applied.get(s, by_topic[TORQUE].get(s)) for s in states}
     n = 0
-    while (n < len(states) and states[n] in by_topic[ANGULAR_VELOCITY]
-           and torque[states[n]] is not None):
+    while (
+        n < len(states)
+        and states[n] in by_topic[ANGULAR_VELOCITY]
+        and torque[states[n]] is not None
+    ):
         n += 1
     if n == 0:
         raise ValueError(f"{bag_dir}: no complete step (state and torque of one stamp)")
@@ -81,11 +85,11 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
 
     def rows(topic, get):
         found = by_topic[topic]
-        return np.array([get(found[s]) if s in found else nan3 for s in states[:n]],
-                        dtype=float)
+        return np.array([get(found[s]) if s in found else nan3 for s in states[:n]], dtype=float)
 
-    quat = rows(ATTITUDE, lambda m: (m.quaternion.x, m.quaternion.y, m.quaternion.z,
-                                     m.quaternion.w))
+    quat = rows(
+        ATTITUDE, lambda m: (m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w)
+    )
     status = np.full(n, PlannerStatus.TRACKING.code, dtype=np.int8)
     d_obs = np.full(n, np.nan)
     step_s = np.full(n, np.nan)
@@ -95,7 +99,8 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
             continue
         try:
             planner = PlannerDiagnostics.from_values(
-                {kv.key: kv.value for kv in diag.status[0].values})
+                {kv.key: kv.value for kv in diag.status[0].values}
+            )
         except ValueError:  # not the planner's diagnostics: the step keeps no planner data
             continue
         status[k] = planner.status.code
@@ -114,8 +119,9 @@ def run_from_bag(bag_dir: str, scenario: Scenario | None = None,
         planner_step_s=step_s,
         wall_time_s=wall_time_s,
     )
-    return BagRun(run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64),
-                  len(states) - n)
+    return BagRun(
+        run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64), len(states) - n
+    )
 
 
 def summarize_bag(bag_run: BagRun) -> dict:

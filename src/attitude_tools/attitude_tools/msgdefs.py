@@ -43,11 +43,25 @@ __all__ = [
 SEPARATOR = "=" * 80
 """Line between the sections of a ``ros2msg`` schema."""
 
-PRIMITIVE_TYPES = frozenset({
-    "bool", "byte", "char", "float32", "float64",
-    "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64",
-    "string", "wstring",
-})
+PRIMITIVE_TYPES = frozenset(
+    {
+        "bool",
+        "byte",
+        "char",
+        "float32",
+        "float64",
+        "int8",
+        "uint8",
+        "int16",
+        "uint16",
+        "int32",
+        "uint32",
+        "int64",
+        "uint64",
+        "string",
+        "wstring",
+    }
+)
 
 MAX_DEPTH = 50
 """Nesting limit, as rosbag2's (a deeper chain means a cycle or a broken install)."""

@@ -24,8 +24,11 @@ __all__ = ["TIMESERIES_COLUMNS", "write_run", "main"]
 
 
 TIMESERIES_COLUMNS = (
-    ["t_s"] + [f"sigma_bn_{i}" for i in (1, 2, 3)] + [f"omega_b_{i}_rad_s" for i in (1, 2, 3)]
-    + [f"torque_b_{i}_nm" for i in (1, 2, 3)] + [f"sigma_t_{i}" for i in (1, 2, 3)]
+    ["t_s"]
+    + [f"sigma_bn_{i}" for i in (1, 2, 3)]
+    + [f"omega_b_{i}_rad_s" for i in (1, 2, 3)]
+    + [f"torque_b_{i}_nm" for i in (1, 2, 3)]
+    + [f"sigma_t_{i}" for i in (1, 2, 3)]
     + [f"omega_t_{i}_rad_s" for i in (1, 2, 3)]
     + ["min_margin_deg", "obstacle_distance_mrp", "planner_status"]
 )
@@ -41,11 +44,27 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
     tmp = stage(out, ".tmp-run-")
     try:
         margins = run.scenario.keep_out().min_margin_deg(run.sigma_bn)
-        table = np.column_stack([run.t, run.sigma_bn, run.omega_b, run.torque_b, run.sigma_t,
-                                 run.omega_t, margins, run.obstacle_distance_mrp,
-                                 run.planner_status])
-        np.savetxt(tmp / "timeseries.csv", table, delimiter=",",
-                   header=",".join(TIMESERIES_COLUMNS), comments="", fmt="%.10g")
+        table = np.column_stack(
+            [
+                run.t,
+                run.sigma_bn,
+                run.omega_b,
+                run.torque_b,
+                run.sigma_t,
+                run.omega_t,
+                margins,
+                run.obstacle_distance_mrp,
+                run.planner_status,
+            ]
+        )
+        np.savetxt(
+            tmp / "timeseries.csv",
+            table,
+            delimiter=",",
+            header=",".join(TIMESERIES_COLUMNS),
+            comments="",
+            fmt="%.10g",
+        )
         with open(tmp / "summary.json", "w") as f:
             json.dump(summary, f, indent=2)
             f.write("\n")
@@ -58,7 +77,8 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="attitude-offline",
-        description="Run a scenario closed-loop in one process (FEPF + PD + rigid body).")
+        description="Run a scenario closed-loop in one process (FEPF + PD + rigid body).",
+    )
     parser.add_argument("scenario", help="scenario YAML (ROS 2 parameters file)")
     parser.add_argument("--out", required=True, help="run directory to write")
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")

@@ -80,8 +80,7 @@ def executable_paths(package_name):
 
 def find_executable(package_name, executable_name):
     """Path of the executable, None if there is none; raises on several or no package."""
-    matches = [p for p in executable_paths(package_name)
-               if os.path.basename(p) == executable_name]
+    matches = [p for p in executable_paths(package_name) if os.path.basename(p) == executable_name]
     if len(matches) > 1:
         raise MultipleExecutables(matches)
     return matches[0] if matches else None
@@ -91,15 +90,18 @@ def _run_parser():
     parser = argparse.ArgumentParser(
         prog='ros2 run',
         description='Run a package specific executable (minimal shim of ros2run: '
-                    'the executable replaces this process).')
+        'the executable replaces this process).',
+    )
     parser.add_argument(
         '--prefix',
         help='Prefix command, which should go before the executable. Command must be '
-             "wrapped in quotes if it contains spaces (e.g. --prefix 'gdb -ex run --args').")
+        "wrapped in quotes if it contains spaces (e.g. --prefix 'gdb -ex run --args').",
+    )
     parser.add_argument('package_name', help='Name of the ROS package')
     parser.add_argument('executable_name', help='Name of the executable')
-    parser.add_argument('argv', nargs=argparse.REMAINDER,
-                        help='Pass arbitrary arguments to the executable')
+    parser.add_argument(
+        'argv', nargs=argparse.REMAINDER, help='Pass arbitrary arguments to the executable'
+    )
     return parser
 
 
@@ -121,12 +123,12 @@ def run(args):
     except PackageNotFound:
         print(f"Package '{args.package_name}' not found", file=sys.stderr)
         if not os.environ.get('AMENT_PREFIX_PATH'):
-            print('(AMENT_PREFIX_PATH is not set: source ros2_ws/install/setup.bash)',
-                  file=sys.stderr)
+            print(
+                '(AMENT_PREFIX_PATH is not set: source ros2_ws/install/setup.bash)', file=sys.stderr
+            )
         return 1
     except MultipleExecutables as e:
-        print('Multiple executables found:' + ''.join(f'\n- {p}' for p in e.paths),
-              file=sys.stderr)
+        print('Multiple executables found:' + ''.join(f'\n- {p}' for p in e.paths), file=sys.stderr)
         return 1
     if path is None:
         print('No executable found', file=sys.stderr)

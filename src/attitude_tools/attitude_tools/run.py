@@ -25,6 +25,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from attitude_core import node_graph as graph
@@ -65,25 +66,34 @@ def ros_environment(workspace: str | None = None) -> dict[str, str]:
     if venv_bin not in env.get("PATH", "").split(os.pathsep):
         env["PATH"] = env.get("PATH", "") + os.pathsep + venv_bin
     prefixes = [p for p in env.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
-    if any((Path(p) / "share/ament_index/resource_index/packages/attitude_planner").exists()
-           for p in prefixes) and workspace is None:
+    if (
+        any(
+            (Path(p) / "share/ament_index/resource_index/packages/attitude_planner").exists()
+            for p in prefixes
+        )
+        and workspace is None
+    ):
         return env
     ws = Path(workspace) if workspace else default_workspace()
     setup = ws / "setup.bash"
     if not setup.is_file():
-        raise RunError(f"colcon workspace not built: {setup} does not exist "
-                       "(run `bash tools/bootstrap`, or pass --workspace)")
+        raise RunError(
+            f"colcon workspace not built: {setup} does not exist "
+            "(run `bash tools/bootstrap`, or pass --workspace)"
+        )
     if sys.prefix not in prefixes:
         prefixes.append(sys.prefix)
     env["AMENT_PREFIX_PATH"] = os.pathsep.join(prefixes)
     out = subprocess.run(
         ["bash", "-c", 'set +u; source "$1" >/dev/null && env -0', "_", str(setup)],
-        env=env, capture_output=True, check=False)
+        env=env,
+        capture_output=True,
+        check=False,
+    )
     if out.returncode != 0:
         raise RunError(f"sourcing {setup} failed: {out.stderr.decode(errors='replace')}")
     sourced = dict(item.split("=", 1) for item in out.stdout.decode().split("\0") if "=" in item)
-    for key in ("AMENT_PREFIX_PATH", "PYTHONPATH", "PATH", "COLCON_PREFIX_PATH",
-                "LD_LIBRARY_PATH"):
+    for key in ("AMENT_PREFIX_PATH", "PYTHONPATH", "PATH", "COLCON_PREFIX_PATH", "LD_LIBRARY_PATH"):
         if key in sourced:
             env[key] = sourced[key]
     return env
@@ -102,9 +112,13 @@ class NodeGraph:
         with open(self.log_dir / f"{name}.log", "wb") as log:  # the child keeps its copy
             self.procs[name] = subprocess.Popen(
                 [self.ros2, "run", spec.package, spec.executable, "--ros-args", *ros_args],
-                env=self.env, cwd=self.cwd, stdout=log, stderr=subprocess.STDOUT,
+                env=self.env,
+                cwd=self.cwd,
+                stdout=log,
+                stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
-                start_new_session=True)  # we, not the terminal, decide the shutdown order
+                start_new_session=True,
+            )  # we, not the terminal, decide the shutdown order
 
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}
@@ -128,17 +142,25 @@ class NodeGraph:
         return "\n".join(f"    {line}" for line in text[-lines:])
 
 
-def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
-                 timeout_s: float | None = None, workspace: str | None = None,
-                 settle_s: float = 10.0, log=print,
-                 node_params: dict[str, list[str]] | None = None) -> tuple[dict, Path]:
+def run_scenario(
+    scenario_path: str,
+    out_dir: str,
+    time_mode: str = "lockstep",
+    timeout_s: float | None = None,
+    workspace: str | None = None,
+    settle_s: float = 10.0,
+    log=print,
+    node_params: dict[str, list[str]] | None = None,
+) -> tuple[dict, Path]:
     """Run one scenario through the node graph; return (summary, run directory).
 
     ``node_params`` maps a node's log name (recorder, planner, controller, simulator)
     to extra ``NAME:=VALUE`` parameters for it.
     """
-    extra = {name: [arg for p in (node_params or {}).get(name, ()) for arg in ("-p", p)]
-             for name in ROLES}
+    extra = {
+        name: [arg for p in (node_params or {}).get(name, ()) for arg in ("-p", p)]
+        for name in ROLES
+    }
     wall0 = time.monotonic()
     scenario = load_scenario(scenario_path)
     out = check_replaceable(out_dir, ("summary.json", "bag"), "run directory")
@@ -156,17 +178,29 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
     nodes = NodeGraph(ros2, env, tmp / "logs", Path(scenario_path).resolve().parent)
     end_reason, failure = None, None
     stop_requested = []
-    handlers = {s: signal.signal(s, lambda n, f: stop_requested.append(n))
-                for s in (signal.SIGINT, signal.SIGTERM)}
+    handlers = {
+        s: signal.signal(s, lambda n, f: stop_requested.append(n))
+        for s in (signal.SIGINT, signal.SIGTERM)
+    }
     try:
         ending = ",".join(status.value for status in PlannerStatus.ending())
         own_args = {
-            graph.RECORDER.role: ["-p", f"output_dir:={tmp / 'bag'}",
-                             "-p", f"stop_on_planner_status:=[{ending}]",
-                             "-p", f"stop_delay_s:={float(settle_s)!r}",
-                             "-p", f"scenario_file:={tmp / 'scenario.yaml'}"],
-            graph.SIMULATOR.role: ["-p", f"time_mode:={time_mode}", "-p",
-                              f"lockstep.expected_subscribers:={graph.state_listeners()}"],
+            graph.RECORDER.role: [
+                "-p",
+                f"output_dir:={tmp / 'bag'}",
+                "-p",
+                f"stop_on_planner_status:=[{ending}]",
+                "-p",
+                f"stop_delay_s:={float(settle_s)!r}",
+                "-p",
+                f"scenario_file:={tmp / 'scenario.yaml'}",
+            ],
+            graph.SIMULATOR.role: [
+                "-p",
+                f"time_mode:={time_mode}",
+                "-p",
+                f"lockstep.expected_subscribers:={graph.state_listeners()}",
+            ],
         }
         for spec in graph.NODES:  # in start order
             scenario_args = params if spec.parameters.scenario is not None else []
@@ -198,8 +232,10 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
     if failure:
         for name in nodes.exited():
             if nodes.procs[name].returncode not in (0, -signal.SIGINT):
-                log(f"attitude-run: {name} (exit {nodes.procs[name].returncode}):\n"
-                    + nodes.tail(name))
+                log(
+                    f"attitude-run: {name} (exit {nodes.procs[name].returncode}):\n"
+                    + nodes.tail(name)
+                )
     summary = None
     if (tmp / "bag" / "metadata.yaml").exists():
         try:
@@ -208,13 +244,15 @@ def run_scenario(scenario_path: str, out_dir: str, time_mode: str = "lockstep",
             failure = failure or f"bag unusable: {err}"
         else:
             summary = summarize_bag(bag_run)
-            summary.update({
-                "time_mode": time_mode,
-                "end_reason": end_reason,
-                "failure": failure,
-                "exit_codes": codes,
-                "shutdown_s": round(shutdown_s, 3),
-            })
+            summary.update(
+                {
+                    "time_mode": time_mode,
+                    "end_reason": end_reason,
+                    "failure": failure,
+                    "exit_codes": codes,
+                    "shutdown_s": round(shutdown_s, 3),
+                }
+            )
             with open(tmp / "summary.json", "w") as f:
                 json.dump(summary, f, indent=2)
                 f.write("\n")
@@ -228,37 +266,69 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="attitude-run",
         description="Run a scenario through the ROS 2 nodes (planner, controller, simulator) "
-                    "and record it to a rosbag2 MCAP bag.")
+        "and record it to a rosbag2 MCAP bag.",
+    )
     parser.add_argument("scenario", help="scenario YAML (ROS 2 parameters file)")
-    parser.add_argument("--out", required=True, help="run directory to write (bag/, logs/, "
-                        "summary.json)")
-    parser.add_argument("--mode", choices=("lockstep", "realtime"), default="lockstep",
-                        help="lockstep simulated time (default) or wall-clock real time")
-    parser.add_argument("--timeout-s", type=float, default=None,
-                        help="wall-time limit (default 120 s, plus 1.5x the scenario time "
-                             "in real time)")
-    parser.add_argument("--settle-s", type=float, default=10.0,
-                        help="run time recorded after the planner reports a status that "
-                             f"ends the slew ({', '.join(PlannerStatus.ending())}), s "
-                             "(default 10: the body settles on the goal)")
-    parser.add_argument("--workspace", default=None,
-                        help="colcon install/ directory (default: this checkout's ros2_ws/install)")
-    parser.add_argument("--param", action="append", default=[], metavar="NODE:NAME:=VALUE",
-                        help="extra parameter for one node (recorder, planner, controller, "
-                             "simulator), e.g. simulator:lockstep.torque_timeout_s:=0.5")
+    parser.add_argument(
+        "--out", required=True, help="run directory to write (bag/, logs/, summary.json)"
+    )
+    parser.add_argument(
+        "--mode",
+        choices=("lockstep", "realtime"),
+        default="lockstep",
+        help="lockstep simulated time (default) or wall-clock real time",
+    )
+    parser.add_argument(
+        "--timeout-s",
+        type=float,
+        default=None,
+        help="wall-time limit (default 120 s, plus 1.5x the scenario time in real time)",
+    )
+    parser.add_argument(
+        "--settle-s",
+        type=float,
+        default=10.0,
+        help="run time recorded after the planner reports a status that "
+        f"ends the slew ({', '.join(PlannerStatus.ending())}), s "
+        "(default 10: the body settles on the goal)",
+    )
+    parser.add_argument(
+        "--workspace",
+        default=None,
+        help="colcon install/ directory (default: this checkout's ros2_ws/install)",
+    )
+    parser.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NODE:NAME:=VALUE",
+        help="extra parameter for one node (recorder, planner, controller, "
+        "simulator), e.g. simulator:lockstep.torque_timeout_s:=0.5",
+    )
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
     args = parser.parse_args(argv)
     node_params: dict[str, list[str]] = {}
     for item in args.param:
         node, _, assignment = item.partition(":")
         if node not in ROLES or ":=" not in assignment:
-            parser.error(f"--param {item!r}: expected NODE:NAME:=VALUE with NODE one of "
-                         f"{list(ROLES)}")
+            parser.error(
+                f"--param {item!r}: expected NODE:NAME:=VALUE with NODE one of {list(ROLES)}"
+            )
         node_params.setdefault(node, []).append(assignment)
-    log = (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
+    log: Callable[[str], None] = (
+        (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
+    )
     try:
-        summary, out = run_scenario(args.scenario, args.out, args.mode, args.timeout_s,
-                                    args.workspace, args.settle_s, log, node_params)
+        summary, out = run_scenario(
+            args.scenario,
+            args.out,
+            args.mode,
+            args.timeout_s,
+            args.workspace,
+            args.settle_s,
+            log,
+            node_params,
+        )
     except ScenarioError as err:
         print(f"attitude-run: error: {err}", file=sys.stderr)
         return 2

@@ -19,8 +19,9 @@ def check_replaceable(out_dir, markers: tuple[str, ...], what: str) -> Path:
     """``out_dir`` as an absolute path; FileExistsError when it exists and is neither empty
     nor previous output (a directory holding one of ``markers``)."""
     out = Path(out_dir).resolve()
-    if out.exists() and (not out.is_dir() or (
-            any(out.iterdir()) and not any((out / m).exists() for m in markers))):
+    if out.exists() and (
+        not out.is_dir() or (any(out.iterdir()) and not any((out / m).exists() for m in markers))
+    ):
         raise FileExistsError(f"--out {out}: exists and is not a previous {what}")
     return out
 

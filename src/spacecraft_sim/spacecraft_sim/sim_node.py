@@ -37,16 +37,13 @@ class RigidBodySimNode(Node):
         self.ready = node_graph.readiness(own["lockstep.expected_subscribers"])
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
         self.done, self.exit_code = False, 0
-        qos = c.qos
-        self.pub_clock = self.create_publisher(ClockMsg, c.CLOCK, qos(c.topic(c.CLOCK)))
-        self.pub_att = self.create_publisher(QuaternionStamped, c.ATTITUDE,
-                                             qos(c.topic(c.ATTITUDE)))
-        self.pub_rate = self.create_publisher(Vector3Stamped, c.ANGULAR_VELOCITY,
-                                              qos(c.topic(c.ANGULAR_VELOCITY)))
-        self.pub_applied = self.create_publisher(WrenchStamped, c.APPLIED_TORQUE,
-                                                 qos(c.topic(c.APPLIED_TORQUE)))
+        pub = lambda kind, name: self.create_publisher(kind, name, c.qos(c.topic(name)))
+        self.pub_clock, self.pub_att = pub(ClockMsg, c.CLOCK), pub(QuaternionStamped, c.ATTITUDE)
+        self.pub_rate = pub(Vector3Stamped, c.ANGULAR_VELOCITY)
+        self.pub_applied = pub(WrenchStamped, c.APPLIED_TORQUE)
         self.sub_torque = self.create_subscription(
-            WrenchStamped, c.TORQUE, self.on_torque, qos(c.topic(c.TORQUE), subscriber=True))
+            WrenchStamped, c.TORQUE, self.on_torque, c.qos(c.topic(c.TORQUE), subscriber=True)
+        )
         self.msg_clock, self.msg_att = ClockMsg(), QuaternionStamped()
         self.msg_rate = Vector3Stamped()
         self.msg_att.header.frame_id = c.INERTIAL_FRAME
@@ -58,7 +55,8 @@ class RigidBodySimNode(Node):
         self.get_logger().info(
             f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "
             f"waiting for {own['lockstep.expected_subscribers']} state listeners and a "
-            "torque publisher")
+            "torque publisher"
+        )
 
     @property
     def rejected(self) -> int:
@@ -72,8 +70,11 @@ class RigidBodySimNode(Node):
             if count < n:
                 return False
         for name, n in self.ready.min_publishers.items():
-            count = (self.sub_torque.get_publisher_count() if name == c.TORQUE
-                     else self.count_publishers(name))
+            count = (
+                self.sub_torque.get_publisher_count()
+                if name == c.TORQUE
+                else self.count_publishers(name)
+            )
             if count < n:
                 return False
         return True
@@ -83,12 +84,13 @@ class RigidBodySimNode(Node):
         if decision.action == Action.FAIL:
             self.get_logger().error(
                 f"{decision.logs[0][1]}: {self.pub_att.get_subscription_count()} state "
-                f"listener(s), {self.sub_torque.get_publisher_count()} torque publisher(s)")
+                f"listener(s), {self.sub_torque.get_publisher_count()} torque publisher(s)"
+            )
             self.finish(decision.exit_code or 1)
         elif decision.action == Action.START:
             self.timer.cancel()
             self.do(decision)
-            period = (LOOP_PERIOD_S if self.stepper.lockstep else self.scenario.dt_s)
+            period = LOOP_PERIOD_S if self.stepper.lockstep else self.scenario.dt_s
             self.timer = self.create_timer(period, self.on_step_timer, clock=self.steady)
             if not self.stepper.lockstep:
                 self.on_step_timer()  # the first real-time step at once
@@ -97,8 +99,9 @@ class RigidBodySimNode(Node):
         self.do(self.stepper.on_timer(time.monotonic(), self.get_clock().now().nanoseconds))
 
     def on_torque(self, msg: WrenchStamped) -> None:
-        decision = self.stepper.on_torque(time.monotonic(), cv.stamp_ns(msg.header.stamp),
-                                          cv.vector3(msg.wrench.torque))
+        decision = self.stepper.on_torque(
+            time.monotonic(), cv.stamp_ns(msg.header.stamp), cv.vector3(msg.wrench.torque)
+        )
         if decision.action == Action.REJECT:
             cv.reject(self, c.TORQUE, decision.reason or "", count=self.stepper.rejected)
         self.do(decision)
@@ -132,7 +135,8 @@ class RigidBodySimNode(Node):
         s = self.stepper
         self.get_logger().info(
             f"stopped at step {s.k}: {s.resends} state re-sends, {s.timeouts} torque "
-            f"timeouts, {s.rejected} rejected torques")
+            f"timeouts, {s.rejected} rejected torques"
+        )
 
 
 def main(args: list[str] | None = None) -> int:

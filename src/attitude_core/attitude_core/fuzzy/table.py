@@ -7,7 +7,7 @@ from __future__ import annotations
 import functools
 import json
 from bisect import bisect_right
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import NoReturn, Self
 
 import numpy as np
@@ -69,6 +69,7 @@ class FisTable:
     _hiy: float
     _ny: int
     _v: list[float]
+    __call__: Callable[..., float]  # table(*inputs), one float per input (the subclasses)
 
     def __new__(cls, *args: object, **kwargs: object) -> Self:
         if cls is FisTable:

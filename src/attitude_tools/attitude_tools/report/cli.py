@@ -40,8 +40,10 @@ def write_report(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> str:
         render_figures(runs, str(tmp), dpi=dpi, mrp_grid=mrp_grid)
         document = {
             "generated_by": "attitude-report",
-            "runs": [{"label": r.label, "run_dir": r.run_dir, "bag": r.bag_dir,
-                      "summary": r.summary} for r in runs],
+            "runs": [
+                {"label": r.label, "run_dir": r.run_dir, "bag": r.bag_dir, "summary": r.summary}
+                for r in runs
+            ],
         }
         with open(tmp / "summary.json", "w", encoding="utf-8") as f:
             json.dump(document, f, indent=2)
@@ -70,14 +72,24 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(
         prog="attitude-report",
         description="Report of a recorded run (figures, report.html, summary.json) from its "
-                    "bag alone; with two run directories, both runs overlaid.")
-    parser.add_argument("runs", nargs="+", metavar="DIR",
-                        help="run directory made by attitude-run (reads DIR/bag/ only); "
-                             "give two to compare")
-    parser.add_argument("--out", default=None,
-                        help="report directory (default DIR/report; required with two runs)")
-    parser.add_argument("--labels", nargs="+", default=None, metavar="LABEL",
-                        help="run labels (default: scenario name and planner variant)")
+        "bag alone; with two run directories, both runs overlaid.",
+    )
+    parser.add_argument(
+        "runs",
+        nargs="+",
+        metavar="DIR",
+        help="run directory made by attitude-run (reads DIR/bag/ only); give two to compare",
+    )
+    parser.add_argument(
+        "--out", default=None, help="report directory (default DIR/report; required with two runs)"
+    )
+    parser.add_argument(
+        "--labels",
+        nargs="+",
+        default=None,
+        metavar="LABEL",
+        help="run labels (default: scenario name and planner variant)",
+    )
     parser.add_argument("--dpi", type=int, default=120, help="figure resolution (default 120)")
     parser.add_argument("--quiet", action="store_true", help="do not print the report path")
     args = parser.parse_args(argv)
@@ -103,8 +115,10 @@ def main(argv=None) -> int:
         print(f"attitude-report: error: {err}", file=sys.stderr)
         return 2
     if not args.quiet:
-        print(f"attitude-report: wrote {os.path.join(out, REPORT_MARKER)} "
-              f"({time.perf_counter() - t0:.1f} s)")
+        print(
+            f"attitude-report: wrote {os.path.join(out, REPORT_MARKER)} "
+            f"({time.perf_counter() - t0:.1f} s)"
+        )
     return 0
 
 

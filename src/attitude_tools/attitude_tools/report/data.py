@@ -25,11 +25,28 @@ __all__ = ["ReportRun", "BagError", "load_run", "SUMMARY_KEYS", "PAIR_KEY"]
 
 # The figures the report shows, in table order (``summarize`` names, then the recording's).
 SUMMARY_KEYS = (
-    "scenario", "planner_variant", "time_mode", "reached", "t_reach_s", "t_plan_arrival_s",
-    "planner_stuck", "min_margin_deg", "t_min_margin_s", "min_margin_deg_per_pair",
-    "path_length_mrp", "target_path_length_mrp", "peak_torque_nm", "peak_rate_rad_s",
-    "final_rate_rad_s", "final_attitude_error_deg", "planner_step_us_median",
-    "planner_step_us_p99", "steps_recorded", "steps_per_s", "sim_time_s", "dt_s",
+    "scenario",
+    "planner_variant",
+    "time_mode",
+    "reached",
+    "t_reach_s",
+    "t_plan_arrival_s",
+    "planner_stuck",
+    "min_margin_deg",
+    "t_min_margin_s",
+    "min_margin_deg_per_pair",
+    "path_length_mrp",
+    "target_path_length_mrp",
+    "peak_torque_nm",
+    "peak_rate_rad_s",
+    "final_rate_rad_s",
+    "final_attitude_error_deg",
+    "planner_step_us_median",
+    "planner_step_us_p99",
+    "steps_recorded",
+    "steps_per_s",
+    "sim_time_s",
+    "dt_s",
 )
 PAIR_KEY = "min_margin_deg_per_pair"
 
@@ -44,7 +61,7 @@ class ReportRun:
     run_dir: str
     bag_dir: str
     bag_run: BagRun
-    summary: dict            # SUMMARY_KEYS, JSON-ready (non-finite floats as None)
+    summary: dict  # SUMMARY_KEYS, JSON-ready (non-finite floats as None)
 
     @property
     def run(self) -> RunResult:
@@ -84,7 +101,7 @@ def load_run(run_dir: str, label: str | None = None) -> ReportRun:
     try:
         bag_run = run_from_bag(bag_dir)
         time_mode = _time_mode(bag_dir, bag_run.stamps_ns)
-    except Exception as err:  # noqa: BLE001 - any reader failure: one clear message
+    except Exception as err:
         raise BagError(f"cannot read the bag at {bag_dir}: {err}") from err
     full = summarize_bag(bag_run)
     full["time_mode"] = time_mode

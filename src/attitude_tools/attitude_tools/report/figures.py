@@ -11,22 +11,23 @@ margin against time.
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 
 matplotlib.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.colors import LightSource  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-from matplotlib.patches import Patch  # noqa: E402
-from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import LightSource
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
+from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # type: ignore[import-untyped]
 
-from attitude_core.metrics import arrival_time  # noqa: E402
-from attitude_core.mrp import to_principal  # noqa: E402
+from attitude_core.metrics import arrival_time
+from attitude_core.mrp import to_principal
 
-from .geometry import (  # noqa: E402
+from .geometry import (
     Pair,
     best_view,
     boresight_inertial,
@@ -40,6 +41,10 @@ from .geometry import (  # noqa: E402
     small_circle,
 )
 
+if TYPE_CHECKING:
+    from matplotlib.artist import Artist
+    from matplotlib.typing import RcKeyType
+
 __all__ = ["FIGURES", "render_figures"]
 
 # file name -> (title, what it shows); the order of the report.
@@ -48,44 +53,58 @@ FIGURES = {
         "Keep-out cones in the inertial frame",
         "Each cone (the instrument's half-angle about the bright object) drawn as a true "
         "small circle on the sky, right ascension / declination (paper: Keep-Out "
-        "Constraints, inertial space)."),
+        "Constraints, inertial space).",
+    ),
     "keepout_mrp.png": (
         "Keep-out regions in MRP space",
         "Zero level set of the margin of each instrument/object pair inside the unit ball "
         "|sigma| <= 1 (marching cubes, clipped at the unit sphere, drawn as a wireframe) "
-        "(paper: Keep-Out Constraints, MRP space)."),
+        "(paper: Keep-Out Constraints, MRP space).",
+    ),
     "trajectory_mrp.png": (
         "MRP trajectory among the keep-out regions",
         "Body sigma_BN (solid) and planner target sigma_t (dashed) in MRP space; start "
-        "and goal marked (paper: MRP vector trajectory)."),
+        "and goal marked (paper: MRP vector trajectory).",
+    ),
     "trajectory_boresight.png": (
         "Boresight trajectory on the sky",
         "Each instrument's boresight C_BN^T s_i on the right ascension / declination "
         "plane among its keep-out cones; start and goal marked (paper: boresight vector "
-        "trajectory)."),
+        "trajectory).",
+    ),
     "history_mrp.png": (
         "Time history of the MRPs",
         "Components of sigma_BN (solid) and of the target sigma_t (dashed); attitude "
-        "error to the goal (paper: time history, MRPs)."),
+        "error to the goal (paper: time history, MRPs).",
+    ),
     "history_rate.png": (
         "Time history of the angular velocity",
-        "Body rate omega_BN components and norm, rad/s (paper: time history, angular "
-        "velocity)."),
+        "Body rate omega_BN components and norm, rad/s (paper: time history, angular velocity).",
+    ),
     "history_torque.png": (
         "Time history of the control torque",
-        "Control torque components (body axes) and norm, N m (paper: time history, "
-        "torque)."),
+        "Control torque components (body axes) and norm, N m (paper: time history, torque).",
+    ),
     "margin.png": (
         "Keep-out margin against time",
         "Angle between boresight and object minus the half-angle, for each "
-        "instrument/object pair; negative is a violation."),
+        "instrument/object pair; negative is a violation.",
+    ),
 }
 
 RUN_COLORS = ("tab:blue", "tab:orange")
-PAIR_COLORS = ("tab:red", "tab:purple", "tab:green", "tab:brown", "tab:pink", "tab:olive",
-               "tab:cyan", "tab:gray")
+PAIR_COLORS = (
+    "tab:red",
+    "tab:purple",
+    "tab:green",
+    "tab:brown",
+    "tab:pink",
+    "tab:olive",
+    "tab:cyan",
+    "tab:gray",
+)
 COMPONENT_COLORS = ("tab:blue", "tab:orange", "tab:green")
-STYLE = {
+STYLE: dict[RcKeyType, Any] = {
     "figure.dpi": 100,
     "font.size": 10,
     "axes.titlesize": 11,
@@ -95,10 +114,12 @@ STYLE = {
     "grid.alpha": 0.35,
     "figure.constrained_layout.use": True,
 }
-START = dict(marker="o", markersize=8, markerfacecolor="white", markeredgewidth=1.8,
-             linestyle="none")
-GOAL = dict(marker="D", markersize=7, markeredgecolor="black", markeredgewidth=1.0,
-            linestyle="none")
+START: dict[str, Any] = dict(
+    marker="o", markersize=8, markerfacecolor="white", markeredgewidth=1.8, linestyle="none"
+)
+GOAL: dict[str, Any] = dict(
+    marker="D", markersize=7, markeredgecolor="black", markeredgewidth=1.0, linestyle="none"
+)
 
 
 def _pair_label(pair: Pair, n_instruments: int) -> str:
@@ -113,14 +134,16 @@ class _Context:
     def __init__(self, runs, mrp_grid: int):
         self.runs = runs
         self.pairs = pairs_of([r.scenario for r in runs])
-        self.n_instruments = len({(p.instrument, p.boresight_body, p.half_angle_deg)
-                                  for p in self.pairs})
+        self.n_instruments = len(
+            {(p.instrument, p.boresight_body, p.half_angle_deg) for p in self.pairs}
+        )
         self.pair_color = {p: PAIR_COLORS[k % len(PAIR_COLORS)] for k, p in enumerate(self.pairs)}
         self.mrp_grid = mrp_grid
         self._surfaces = None
         pts = [to_principal(r.run.sigma_bn) for r in runs]
-        pts += [to_principal(np.array([r.scenario.initial_mrp, r.scenario.desired_mrp]))
-                for r in runs]
+        pts += [
+            to_principal(np.array([r.scenario.initial_mrp, r.scenario.desired_mrp])) for r in runs
+        ]
         self.view = best_view(np.concatenate(pts))
         if len(runs) == 1:
             self.title = runs[0].label
@@ -175,28 +198,53 @@ def _sky():
 def _draw_cones(ctx: _Context, ax, pairs) -> list:
     """Filled cones with true-circle outlines and the objects; legend handles."""
     ra, dec, v = _sky()
-    handles = []
-    objects = {}
+    handles: list[Artist] = []
+    objects: dict[tuple[float, float, float], str] = {}
     for p in pairs:
         color = ctx.pair_color[p]
         margin = pair_margin_on_sky(p, v)
-        ax.contourf(ra, dec, margin, levels=[margin.min() - 1.0, 0.0], colors=[color],
-                    alpha=0.22)
-        cra, cdec = break_wraps(*ra_dec_deg(small_circle(p.direction_inertial,
-                                                         p.half_angle_deg)))
-        ax.plot(cra, cdec, color=color, linewidth=1.6, solid_capstyle="round",
-                solid_joinstyle="round")
-        handles.append(Patch(facecolor=color, edgecolor=color, alpha=0.5,
-                             label=_pair_label(p, ctx.n_instruments)))
+        ax.contourf(ra, dec, margin, levels=[margin.min() - 1.0, 0.0], colors=[color], alpha=0.22)
+        cra, cdec = break_wraps(*ra_dec_deg(small_circle(p.direction_inertial, p.half_angle_deg)))
+        ax.plot(
+            cra, cdec, color=color, linewidth=1.6, solid_capstyle="round", solid_joinstyle="round"
+        )
+        handles.append(
+            Patch(
+                facecolor=color, edgecolor=color, alpha=0.5, label=_pair_label(p, ctx.n_instruments)
+            )
+        )
         objects.setdefault(p.direction_inertial, p.obj)
     for direction, name in objects.items():
         ora, odec = ra_dec_deg(np.array(direction))
-        ax.plot(ora, odec, marker="*", color="black", markersize=9, linestyle="none",
-                clip_on=False, zorder=7)
-        ax.annotate(name, (ora, odec), xytext=(5, 4), textcoords="offset points", fontsize=8,
-                    annotation_clip=False)
-    handles.append(Line2D([], [], marker="*", color="black", linestyle="none", markersize=9,
-                          label="bright object direction"))
+        ax.plot(
+            ora,
+            odec,
+            marker="*",
+            color="black",
+            markersize=9,
+            linestyle="none",
+            clip_on=False,
+            zorder=7,
+        )
+        ax.annotate(
+            name,
+            (ora, odec),
+            xytext=(5, 4),
+            textcoords="offset points",
+            fontsize=8,
+            annotation_clip=False,
+        )
+    handles.append(
+        Line2D(
+            [],
+            [],
+            marker="*",
+            color="black",
+            linestyle="none",
+            markersize=9,
+            label="bright object direction",
+        )
+    )
     return handles
 
 
@@ -205,9 +253,13 @@ def fig_keepout_inertial(ctx: _Context):
     handles = _draw_cones(ctx, ax, ctx.pairs)
     _sky_axes(ax)
     ax.set_title(f"{ctx.title}: keep-out cones in the inertial frame")
-    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0),
-              title="keep-out cone: object" + (" / instrument" if ctx.n_instruments > 1
-                                               else f"\n({ctx.pairs[0].instrument})"))
+    ax.legend(
+        handles=handles,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        title="keep-out cone: object"
+        + (" / instrument" if ctx.n_instruments > 1 else f"\n({ctx.pairs[0].instrument})"),
+    )
     return fig
 
 
@@ -220,16 +272,24 @@ def fig_trajectory_boresight(ctx: _Context):
         color = ctx.run_color(k)
         label = run.label if ctx.compare else "boresight"
         run_handles.append(Line2D([], [], color=color, linewidth=2.0, label=label))
-    run_handles += [Line2D([], [], color="black", label="start", **START),
-                    Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL)]
+    run_handles += [
+        Line2D([], [], color="black", label="start", **START),
+        Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL),
+    ]
     for ax, (name, s_body, beta) in zip(axes[:, 0], instruments, strict=True):
-        pairs = [p for p in ctx.pairs if (p.instrument, p.boresight_body, p.half_angle_deg)
-                 == (name, s_body, beta)]
+        pairs = [
+            p
+            for p in ctx.pairs
+            if (p.instrument, p.boresight_body, p.half_angle_deg) == (name, s_body, beta)
+        ]
         cone_handles = _draw_cones(ctx, ax, pairs)
         for k, run in enumerate(ctx.runs):
             sc = run.scenario
-            match = [i for i, nm in enumerate(sc.instrument_names)
-                     if nm == name and np.allclose(sc.boresights_body[i], s_body)]
+            match = [
+                i
+                for i, nm in enumerate(sc.instrument_names)
+                if nm == name and np.allclose(sc.boresights_body[i], s_body)
+            ]
             if not match:
                 continue
             color = ctx.run_color(k)
@@ -240,10 +300,18 @@ def fig_trajectory_boresight(ctx: _Context):
             ax.plot(*b0, markeredgecolor=color, zorder=6, **START)
             ax.plot(*bd, markerfacecolor=color, zorder=6, **GOAL)
         _sky_axes(ax)
-        ax.set_title(f"{name}: boresight [{', '.join(f'{x:g}' for x in s_body)}] (body), "
-                     f"half-angle {beta:g} deg")
-        ax.legend(handles=cone_handles, loc="upper left", bbox_to_anchor=(1.01, 1.0),
-                  title="keep-out cone", fontsize=8, title_fontsize=9)
+        ax.set_title(
+            f"{name}: boresight [{', '.join(f'{x:g}' for x in s_body)}] (body), "
+            f"half-angle {beta:g} deg"
+        )
+        ax.legend(
+            handles=cone_handles,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            title="keep-out cone",
+            fontsize=8,
+            title_fontsize=9,
+        )
     fig.suptitle(f"{ctx.title}: boresight trajectory on the sky")
     fig.legend(handles=run_handles, loc="outside lower center", ncol=len(run_handles))
     return fig
@@ -254,21 +322,37 @@ def fig_trajectory_boresight(ctx: _Context):
 
 def _mrp_axes(fig, ctx: _Context):
     ax = fig.add_subplot(projection="3d", computed_zorder=False)
-    handles = []
+    handles: list[Artist] = []
     light = LightSource(azdeg=315, altdeg=35)
     for p, surf in ctx.surfaces():
         color = ctx.pair_color[p]
-        handles.append(Patch(facecolor=color, alpha=0.6, label=_pair_label(p, ctx.n_instruments)
-                             + ("" if surf is not None else " (outside the unit ball)")))
+        handles.append(
+            Patch(
+                facecolor=color,
+                alpha=0.6,
+                label=_pair_label(p, ctx.n_instruments)
+                + ("" if surf is not None else " (outside the unit ball)"),
+            )
+        )
         if surf is None:
             continue
-        ax.add_collection3d(Poly3DCollection(surf, facecolors=color, alpha=0.33,
-                                             linewidths=0.0, shade=True, lightsource=light))
+        ax.add_collection3d(
+            Poly3DCollection(
+                surf, facecolors=color, alpha=0.33, linewidths=0.0, shade=True, lightsource=light
+            )
+        )
     u = np.linspace(0.0, 2.0 * np.pi, 37)
     w = np.linspace(0.0, np.pi, 19)
-    ax.plot_wireframe(np.outer(np.cos(u), np.sin(w)), np.outer(np.sin(u), np.sin(w)),
-                      np.outer(np.ones_like(u), np.cos(w)), color="0.55", linewidth=0.35,
-                      alpha=0.45, rstride=2, cstride=2)
+    ax.plot_wireframe(
+        np.outer(np.cos(u), np.sin(w)),
+        np.outer(np.sin(u), np.sin(w)),
+        np.outer(np.ones_like(u), np.cos(w)),
+        color="0.55",
+        linewidth=0.35,
+        alpha=0.45,
+        rstride=2,
+        cstride=2,
+    )
     handles.append(Line2D([], [], color="0.55", linewidth=0.8, label="unit sphere |sigma| = 1"))
     for setter in (ax.set_xlim, ax.set_ylim, ax.set_zlim):
         setter(-1.08, 1.08)
@@ -289,9 +373,13 @@ def fig_keepout_mrp(ctx: _Context):
     fig = plt.figure(figsize=(8.0, 8.2))
     ax, handles = _mrp_axes(fig, ctx)
     ax.set_title(f"{ctx.title}: keep-out regions in MRP space")
-    fig.legend(handles=handles, loc="outside lower center", ncol=2,
-               title="keep-out region: object" + (" / instrument" if ctx.n_instruments > 1
-                                                  else f" ({ctx.pairs[0].instrument})"))
+    fig.legend(
+        handles=handles,
+        loc="outside lower center",
+        ncol=2,
+        title="keep-out region: object"
+        + (" / instrument" if ctx.n_instruments > 1 else f" ({ctx.pairs[0].instrument})"),
+    )
     return fig
 
 
@@ -306,17 +394,34 @@ def fig_trajectory_mrp(ctx: _Context):
         body = break_jumps(run.run.sigma_bn)
         target = break_jumps(run.run.sigma_t)
         ax.plot(*body.T, color=color, linewidth=2.4, zorder=10)
-        ax.plot(*target.T, color=color, linestyle=(0, (4, 3)), linewidth=1.3,
-                gapcolor="white", zorder=11)
+        ax.plot(
+            *target.T,
+            color=color,
+            linestyle=(0, (4, 3)),
+            linewidth=1.3,
+            gapcolor="white",
+            zorder=11,
+        )
         s0 = to_principal(sc.initial_mrp)
         sd = to_principal(sc.desired_mrp)
         ax.plot(*[[x] for x in s0], markeredgecolor=color, zorder=12, **START)
         ax.plot(*[[x] for x in sd], markerfacecolor=color, zorder=12, **GOAL)
-        traj += [Line2D([], [], color=color, linewidth=2.2, label=f"{tag}body sigma_BN"),
-                 Line2D([], [], color=color, linewidth=1.3, linestyle="--",
-                        gapcolor="white", label=f"{tag}target sigma_t")]
-    traj += [Line2D([], [], color="black", label="start", **START),
-             Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL)]
+        traj += [
+            Line2D([], [], color=color, linewidth=2.2, label=f"{tag}body sigma_BN"),
+            Line2D(
+                [],
+                [],
+                color=color,
+                linewidth=1.3,
+                linestyle="--",
+                gapcolor="white",
+                label=f"{tag}target sigma_t",
+            ),
+        ]
+    traj += [
+        Line2D([], [], color="black", label="start", **START),
+        Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL),
+    ]
     ax.set_title(f"{ctx.title}: MRP trajectory")
     fig.legend(handles=traj + handles, loc="outside lower center", ncol=2)
     return fig
@@ -334,30 +439,55 @@ def _arrival_lines(ctx: _Context, axes) -> list:
         color = ctx.run_color(k, "0.3")
         for ax in axes:
             ax.axvline(t_reach, color=color, linestyle=":", linewidth=1.2)
-        handles.append(Line2D([], [], color=color, linestyle=":",
-                              label=f"arrival{' ' + run.label if ctx.compare else ''}"
-                                    f" ({t_reach:g} s)"))
+        handles.append(
+            Line2D(
+                [],
+                [],
+                color=color,
+                linestyle=":",
+                label=f"arrival{' ' + run.label if ctx.compare else ''} ({t_reach:g} s)",
+            )
+        )
     return handles
 
 
-def _history(ctx: _Context, name: str, symbol: str, unit: str, get, norm_label: str,
-             norm=None, target=None, target_label: str = ""):
+def _history(
+    ctx: _Context,
+    name: str,
+    symbol: str,
+    unit: str,
+    get,
+    norm_label: str,
+    norm=None,
+    target=None,
+    target_label: str = "",
+):
     """Components (and a norm-like panel): one panel in single mode, one per component
     when comparing runs."""
     unit_txt = f" ({unit})" if unit else ""
     if not ctx.compare:
-        fig, (ax, axn) = plt.subplots(2, 1, figsize=(9.0, 6.6), sharex=True,
-                                      height_ratios=(1.6, 1.0))
+        fig, (ax, axn) = plt.subplots(
+            2, 1, figsize=(9.0, 6.6), sharex=True, height_ratios=(1.6, 1.0)
+        )
         run = ctx.runs[0]
         data = get(run)
         handles = []
         for i in range(3):
             ax.plot(run.run.t, data[:, i], color=COMPONENT_COLORS[i], linewidth=1.6)
-            handles.append(Line2D([], [], color=COMPONENT_COLORS[i], linewidth=1.6,
-                                  label=f"{symbol}$_{i + 1}$"))
+            handles.append(
+                Line2D(
+                    [], [], color=COMPONENT_COLORS[i], linewidth=1.6, label=f"{symbol}$_{i + 1}$"
+                )
+            )
             if target is not None:
-                ax.plot(run.run.t, target(run)[:, i], color=COMPONENT_COLORS[i],
-                        linestyle=(0, (4, 3)), linewidth=1.1, gapcolor="white")
+                ax.plot(
+                    run.run.t,
+                    target(run)[:, i],
+                    color=COMPONENT_COLORS[i],
+                    linestyle=(0, (4, 3)),
+                    linewidth=1.1,
+                    gapcolor="white",
+                )
         if target is not None:
             handles.append(Line2D([], [], color="0.3", linestyle="--", label=target_label))
         ax.set_ylabel(f"{symbol}{unit_txt}")
@@ -376,16 +506,24 @@ def _history(ctx: _Context, name: str, symbol: str, unit: str, get, norm_label: 
             for i in range(3):
                 axes[i].plot(run.run.t, data[:, i], color=color, linewidth=1.5)
                 if target is not None:
-                    axes[i].plot(run.run.t, target(run)[:, i], color=color,
-                                 linestyle=(0, (4, 3)), linewidth=1.0, gapcolor="white")
+                    axes[i].plot(
+                        run.run.t,
+                        target(run)[:, i],
+                        color=color,
+                        linestyle=(0, (4, 3)),
+                        linewidth=1.0,
+                        gapcolor="white",
+                    )
             values = norm(run) if norm is not None else np.linalg.norm(data, axis=1)
             axes[3].plot(run.run.t, values, color=color, linewidth=1.5)
         for i in range(3):
             axes[i].set_ylabel(f"{symbol}$_{i + 1}${unit_txt}")
         axes[3].set_ylabel(norm_label)
         axes[3].set_xlabel("time (s)")
-        handles = [Line2D([], [], color=RUN_COLORS[k], linewidth=1.5, label=r.label)
-                   for k, r in enumerate(ctx.runs)]
+        handles = [
+            Line2D([], [], color=RUN_COLORS[k], linewidth=1.5, label=r.label)
+            for k, r in enumerate(ctx.runs)
+        ]
         if target is not None:
             handles.append(Line2D([], [], color="0.3", linestyle="--", label=target_label))
         handles += _arrival_lines(ctx, axes)
@@ -396,24 +534,43 @@ def _history(ctx: _Context, name: str, symbol: str, unit: str, get, norm_label: 
 
 def _attitude_error_deg(run) -> np.ndarray:
     sc = run.scenario
-    return arrival_time(run.run.t, run.run.sigma_bn, run.run.omega_b, sc.desired_mrp,
-                        sc.arrival.attitude_tol_deg, sc.arrival.rate_tol_rad_s)[2]
+    return arrival_time(
+        run.run.t,
+        run.run.sigma_bn,
+        run.run.omega_b,
+        sc.desired_mrp,
+        sc.arrival.attitude_tol_deg,
+        sc.arrival.rate_tol_rad_s,
+    )[2]
 
 
 def fig_history_mrp(ctx: _Context):
-    return _history(ctx, "MRPs", r"$\sigma$", "-", lambda r: r.run.sigma_bn,
-                    "attitude error\nto goal (deg)", norm=_attitude_error_deg,
-                    target=lambda r: r.run.sigma_t, target_label="target sigma_t (dashed)")
+    return _history(
+        ctx,
+        "MRPs",
+        r"$\sigma$",
+        "-",
+        lambda r: r.run.sigma_bn,
+        "attitude error\nto goal (deg)",
+        norm=_attitude_error_deg,
+        target=lambda r: r.run.sigma_t,
+        target_label="target sigma_t (dashed)",
+    )
 
 
 def fig_history_rate(ctx: _Context):
-    return _history(ctx, "angular velocity", r"$\omega$", "rad/s", lambda r: r.run.omega_b,
-                    r"$|\omega|$ (rad/s)")
+    return _history(
+        ctx,
+        "angular velocity",
+        r"$\omega$",
+        "rad/s",
+        lambda r: r.run.omega_b,
+        r"$|\omega|$ (rad/s)",
+    )
 
 
 def fig_history_torque(ctx: _Context):
-    return _history(ctx, "control torque", r"$u$", "N m", lambda r: r.run.torque_b,
-                    r"$|u|$ (N m)")
+    return _history(ctx, "control torque", r"$u$", "N m", lambda r: r.run.torque_b, r"$|u|$ (N m)")
 
 
 # --- margin -------------------------------------------------------------------------
@@ -425,25 +582,38 @@ def _run_pair_margins(run, pair: Pair):
     for i, nm in enumerate(sc.instrument_names):
         for j, obj in enumerate(sc.bright_object_names):
             if (nm, obj) == (pair.instrument, pair.obj) and np.allclose(
-                    sc.directions_inertial[j], pair.direction_inertial):
+                sc.directions_inertial[j], pair.direction_inertial
+            ):
                 return sc.keep_out().margins_deg(run.run.sigma_bn)[:, i, j]
     return None
 
 
 def fig_margin(ctx: _Context):
+    p: Pair | None  # a pair, or None for the all-pairs panel
     if not ctx.compare:
         run = ctx.runs[0]
         fig, ax = plt.subplots(figsize=(9.0, 5.0))
         ax.axhspan(-180.0, 0.0, color="tab:red", alpha=0.07, linewidth=0)
         for p in ctx.pairs:
             m = _run_pair_margins(run, p)
-            ax.plot(run.run.t, m, color=ctx.pair_color[p], linewidth=1.6,
-                    label=f"{p.instrument} / {p.obj}")
+            ax.plot(
+                run.run.t,
+                m,
+                color=ctx.pair_color[p],
+                linewidth=1.6,
+                label=f"{p.instrument} / {p.obj}",
+            )
         ax.axhline(0.0, color="black", linestyle="--", linewidth=1.0, label="zero margin")
         s = run.summary
-        ax.plot([s["t_min_margin_s"]], [s["min_margin_deg"]], marker="v", color="black",
-                linestyle="none", markersize=7,
-                label=f"minimum {s['min_margin_deg']:.2f} deg at {s['t_min_margin_s']:g} s")
+        ax.plot(
+            [s["t_min_margin_s"]],
+            [s["min_margin_deg"]],
+            marker="v",
+            color="black",
+            linestyle="none",
+            markersize=7,
+            label=f"minimum {s['min_margin_deg']:.2f} deg at {s['t_min_margin_s']:g} s",
+        )
         _margin_limits(ax, [_run_pair_margins(run, p) for p in ctx.pairs])
         ax.set_xlabel("time (s)")
         ax.set_ylabel("keep-out margin (deg)")
@@ -455,17 +625,25 @@ def fig_margin(ctx: _Context):
     n = len(panels)
     ncols = 2
     nrows = -(-n // ncols)
-    fig, axes = plt.subplots(nrows, ncols, figsize=(6.0 * ncols, 3.3 * nrows + 0.8),
-                             squeeze=False, sharex=True)
+    fig, axes = plt.subplots(
+        nrows, ncols, figsize=(6.0 * ncols, 3.3 * nrows + 0.8), squeeze=False, sharex=True
+    )
     for ax, p in zip(axes.flat, panels, strict=False):
         series = []
         for k, run in enumerate(ctx.runs):
             if p is None:
                 m = run.scenario.keep_out().min_margin_deg(run.run.sigma_bn)
                 s = run.summary
-                ax.plot([s["t_min_margin_s"]], [s["min_margin_deg"]], marker="v",
-                        color=RUN_COLORS[k], markeredgecolor="black", linestyle="none",
-                        markersize=7, zorder=5)
+                ax.plot(
+                    [s["t_min_margin_s"]],
+                    [s["min_margin_deg"]],
+                    marker="v",
+                    color=RUN_COLORS[k],
+                    markeredgecolor="black",
+                    linestyle="none",
+                    markersize=7,
+                    zorder=5,
+                )
             else:
                 m = _run_pair_margins(run, p)
             if m is None:
@@ -486,11 +664,22 @@ def fig_margin(ctx: _Context):
         visible = [axes[r, col] for r in range(nrows) if r * ncols + col < n]
         visible[-1].xaxis.set_tick_params(labelbottom=True)
         visible[-1].set_xlabel("time (s)")
-    handles = [Line2D([], [], color=RUN_COLORS[k], linewidth=1.5, label=r.label)
-               for k, r in enumerate(ctx.runs)]
+    handles = [
+        Line2D([], [], color=RUN_COLORS[k], linewidth=1.5, label=r.label)
+        for k, r in enumerate(ctx.runs)
+    ]
     handles.append(Line2D([], [], color="black", linestyle="--", label="zero margin"))
-    handles.append(Line2D([], [], marker="v", color="0.5", markeredgecolor="black",
-                          linestyle="none", label="minimum (between steps too)"))
+    handles.append(
+        Line2D(
+            [],
+            [],
+            marker="v",
+            color="0.5",
+            markeredgecolor="black",
+            linestyle="none",
+            label="minimum (between steps too)",
+        )
+    )
     fig.legend(handles=handles, loc="outside lower center", ncol=len(handles))
     fig.suptitle(f"{ctx.title}: keep-out margin per instrument / object")
     return fig
@@ -523,8 +712,9 @@ def render_figures(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> li
         for name in FIGURES:
             fig = _BUILDERS[name](ctx)
             try:
-                fig.savefig(os.path.join(out_dir, name), dpi=dpi, bbox_inches="tight",
-                            pad_inches=0.12)
+                fig.savefig(
+                    os.path.join(out_dir, name), dpi=dpi, bbox_inches="tight", pad_inches=0.12
+                )
             finally:
                 plt.close(fig)
             written.append(name)

@@ -5,16 +5,28 @@ MRP-space keep-out surfaces. Plain NumPy (and scikit-image for marching cubes).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 from skimage.measure import marching_cubes
 
 from attitude_core.constraints import KeepOutGeometry
-from attitude_core.mrp import dcm_from_mrp
+from attitude_core.mrp import Vec3, dcm_from_mrp
 
-__all__ = ["Pair", "pairs_of", "ra_dec_deg", "break_wraps", "small_circle", "sky_grid",
-           "pair_margin_on_sky", "boresight_inertial", "break_jumps", "mrp_surface",
-           "clip_to_unit_ball", "best_view"]
+__all__ = [
+    "Pair",
+    "pairs_of",
+    "ra_dec_deg",
+    "break_wraps",
+    "small_circle",
+    "sky_grid",
+    "pair_margin_on_sky",
+    "boresight_inertial",
+    "break_jumps",
+    "mrp_surface",
+    "clip_to_unit_ball",
+    "best_view",
+]
 
 
 @dataclass(frozen=True)
@@ -32,8 +44,12 @@ class Pair:
         return f"{self.instrument}/{self.obj}"
 
     def geometry(self) -> KeepOutGeometry:
-        return KeepOutGeometry(np.array([self.boresight_body]), np.array([self.half_angle_deg]),
-                               np.array([self.direction_inertial]), samples=8)
+        return KeepOutGeometry(
+            np.array([self.boresight_body]),
+            np.array([self.half_angle_deg]),
+            np.array([self.direction_inertial]),
+            samples=8,
+        )
 
 
 def pairs_of(scenarios) -> list[Pair]:
@@ -42,18 +58,24 @@ def pairs_of(scenarios) -> list[Pair]:
     for sc in scenarios:
         for i, name in enumerate(sc.instrument_names):
             for j, obj in enumerate(sc.bright_object_names):
-                p = Pair(name, obj, tuple(float(x) for x in sc.boresights_body[i]),
-                         float(sc.half_angles_deg[i]),
-                         tuple(float(x) for x in sc.directions_inertial[j]))
+                p = Pair(
+                    name,
+                    obj,
+                    cast(Vec3, tuple(float(x) for x in sc.boresights_body[i])),
+                    float(sc.half_angles_deg[i]),
+                    cast(Vec3, tuple(float(x) for x in sc.directions_inertial[j])),
+                )
                 if not any(_same(p, q) for q in out):
                     out.append(p)
     return out
 
 
 def _same(p: Pair, q: Pair) -> bool:
-    return (np.allclose(p.boresight_body, q.boresight_body, atol=1e-12)
-            and abs(p.half_angle_deg - q.half_angle_deg) < 1e-12
-            and np.allclose(p.direction_inertial, q.direction_inertial, atol=1e-12))
+    return (
+        np.allclose(p.boresight_body, q.boresight_body, atol=1e-12)
+        and abs(p.half_angle_deg - q.half_angle_deg) < 1e-12
+        and np.allclose(p.direction_inertial, q.direction_inertial, atol=1e-12)
+    )
 
 
 def ra_dec_deg(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -161,9 +183,9 @@ def clip_to_unit_ball(tris: np.ndarray) -> np.ndarray:
         # Rotate each triangle (cyclically) so the odd vertex comes first.
         k = np.argmax(inside[sel], axis=1) if n_in == 1 else np.argmin(inside[sel], axis=1)
         a, b, c = (tris[sel, (k + j) % 3] for j in range(3))
-        if n_in == 1:   # a inside: keep the tip
+        if n_in == 1:  # a inside: keep the tip
             out.append(np.stack([a, _exit_point(a, b), _exit_point(a, c)], 1))
-        else:           # a outside: keep the quad b, c, exit(c->a), exit(b->a)
+        else:  # a outside: keep the quad b, c, exit(c->a), exit(b->a)
             pb, pc = _exit_point(b, a), _exit_point(c, a)
             out.append(np.stack([b, c, pc], 1))
             out.append(np.stack([b, pc, pb], 1))

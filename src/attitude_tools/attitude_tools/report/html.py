@@ -90,8 +90,14 @@ def table_rows(summaries: list[dict]) -> list[tuple[str, str, str, list]]:
         for s in summaries:
             pairs += [p for p in s.get(PAIR_KEY, {}) if p not in pairs]
         for p in pairs:
-            rows.append((f"{PAIR_KEY}/{p}", f"{label}, {p}", unit,
-                         [s.get(PAIR_KEY, {}).get(p) for s in summaries]))
+            rows.append(
+                (
+                    f"{PAIR_KEY}/{p}",
+                    f"{label}, {p}",
+                    unit,
+                    [s.get(PAIR_KEY, {}).get(p) for s in summaries],
+                )
+            )
     return rows
 
 
@@ -105,8 +111,10 @@ def _cell(key: str, value) -> str:
         classes.append("bad")
     attr = f' class="{" ".join(classes)}"' if classes else ""
     exact = html.escape(json.dumps(value), quote=True)
-    return (f'<td{attr} data-key="{html.escape(key, quote=True)}" data-value="{exact}" '
-            f'title="{exact}">{html.escape(format_value(value))}</td>')
+    return (
+        f'<td{attr} data-key="{html.escape(key, quote=True)}" data-value="{exact}" '
+        f'title="{exact}">{html.escape(format_value(value))}</td>'
+    )
 
 
 def _vec(v) -> str:
@@ -119,22 +127,50 @@ def _scenario_table(runs) -> str:
     rows = [
         ("run directory", [f"<code>{e(r.run_dir)}</code>" for r in runs]),
         ("bag (the only input)", [f"<code>{e(r.bag_dir)}</code>" for r in runs]),
-        ("instruments: boresight (body), half-angle",
-         ["<br>".join(f"{e(n)}: {_vec(s)}, {b:g} deg" for n, s, b in zip(
-             r.scenario.instrument_names, r.scenario.boresights_body,
-             r.scenario.half_angles_deg, strict=True)) for r in runs]),
-        ("bright objects: direction (inertial)",
-         ["<br>".join(f"{e(n)}: {_vec(c)}" for n, c in zip(
-             r.scenario.bright_object_names, r.scenario.directions_inertial, strict=True))
-          for r in runs]),
-        ("initial / desired MRP",
-         [f"{_vec(r.scenario.initial_mrp)} / {_vec(r.scenario.desired_mrp)}" for r in runs]),
-        ("arrival tolerances",
-         [f"{r.scenario.arrival.attitude_tol_deg:g} deg, "
-          f"{r.scenario.arrival.rate_tol_rad_s:g} rad/s" for r in runs]),
+        (
+            "instruments: boresight (body), half-angle",
+            [
+                "<br>".join(
+                    f"{e(n)}: {_vec(s)}, {b:g} deg"
+                    for n, s, b in zip(
+                        r.scenario.instrument_names,
+                        r.scenario.boresights_body,
+                        r.scenario.half_angles_deg,
+                        strict=True,
+                    )
+                )
+                for r in runs
+            ],
+        ),
+        (
+            "bright objects: direction (inertial)",
+            [
+                "<br>".join(
+                    f"{e(n)}: {_vec(c)}"
+                    for n, c in zip(
+                        r.scenario.bright_object_names, r.scenario.directions_inertial, strict=True
+                    )
+                )
+                for r in runs
+            ],
+        ),
+        (
+            "initial / desired MRP",
+            [f"{_vec(r.scenario.initial_mrp)} / {_vec(r.scenario.desired_mrp)}" for r in runs],
+        ),
+        (
+            "arrival tolerances",
+            [
+                f"{r.scenario.arrival.attitude_tol_deg:g} deg, "
+                f"{r.scenario.arrival.rate_tol_rad_s:g} rad/s"
+                for r in runs
+            ],
+        ),
     ]
-    body = "".join(f"<tr><th>{e(name)}</th>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
-                   for name, cells in rows)
+    body = "".join(
+        f"<tr><th>{e(name)}</th>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
+        for name, cells in rows
+    )
     return f"<table><thead><tr><th></th>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
@@ -144,10 +180,15 @@ def _summary_table(runs) -> str:
     body = []
     for key, label, unit, values in table_rows([r.summary for r in runs]):
         cls = ' class="pair"' if key.startswith(PAIR_KEY + "/") else ""
-        body.append(f"<tr{cls}><th>{e(label)}</th><td class=\"unit\">{e(unit)}</td>"
-                    + "".join(_cell(key, v) for v in values) + "</tr>")
-    return (f'<table id="summary"><thead><tr><th>quantity</th><th>unit</th>{head}</tr></thead>'
-            f"<tbody>{''.join(body)}</tbody></table>")
+        body.append(
+            f"<tr{cls}><th>{e(label)}</th><td class=\"unit\">{e(unit)}</td>"
+            + "".join(_cell(key, v) for v in values)
+            + "</tr>"
+        )
+    return (
+        f'<table id="summary"><thead><tr><th>quantity</th><th>unit</th>{head}</tr></thead>'
+        f"<tbody>{''.join(body)}</tbody></table>"
+    )
 
 
 def render_html(runs, figure_dir: str, figures: dict) -> str:
@@ -159,15 +200,18 @@ def render_html(runs, figure_dir: str, figures: dict) -> str:
     else:
         title = "Attitude run comparison: " + " vs ".join(r.label for r in runs)
     parts = [
-        "<!DOCTYPE html>", '<html lang="en"><head><meta charset="utf-8">',
+        "<!DOCTYPE html>",
+        '<html lang="en"><head><meta charset="utf-8">',
         '<meta name="viewport" content="width=device-width, initial-scale=1">',
         f"<title>{e(title)}</title><style>{CSS}</style></head><body>",
         f"<h1>{e(title)}</h1>",
         '<p class="note">Every number and figure is computed from the recorded bag alone '
         "(the run rebuilt from its messages and the scenario attached to the bag), with the "
         "same <code>summarize</code> as <code>attitude-run</code>'s summary.json.</p>",
-        "<h2>Scenario</h2>", _scenario_table(runs),
-        "<h2>Summary</h2>", _summary_table(runs),
+        "<h2>Scenario</h2>",
+        _scenario_table(runs),
+        "<h2>Summary</h2>",
+        _summary_table(runs),
         '<p class="note">Margins are the angle between boresight and object minus the '
         "cone half-angle (positive is safe). Arrival time: first time after which the body "
         "stays within the arrival tolerances.</p>",
@@ -176,8 +220,10 @@ def render_html(runs, figure_dir: str, figures: dict) -> str:
     for name, (fig_title, caption) in figures.items():
         with open(os.path.join(figure_dir, name), "rb") as f:
             data = base64.b64encode(f.read()).decode("ascii")
-        parts.append(f'<figure id="{e(name, quote=True)}"><h3>{e(fig_title)}</h3>'
-                     f'<img alt="{e(fig_title, quote=True)}" src="data:image/png;base64,{data}">'
-                     f"<figcaption>{e(caption)} (<code>{e(name)}</code>)</figcaption></figure>")
+        parts.append(
+            f'<figure id="{e(name, quote=True)}"><h3>{e(fig_title)}</h3>'
+            f'<img alt="{e(fig_title, quote=True)}" src="data:image/png;base64,{data}">'
+            f"<figcaption>{e(caption)} (<code>{e(name)}</code>)</figcaption></figure>"
+        )
     parts.append("</body></html>")
     return "\n".join(parts) + "\n"
