@@ -207,6 +207,46 @@ def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
         assert fragment in output, output
 
 
+# Node-own parameters are rows too: a refused value exits 2 naming the key, no traceback.
+NODE_PARAMETER_CASES = {
+    "time_mode:=1": ("time_mode", "InvalidParameterTypeException"),
+    "time_mode:=fast": ("time_mode", "must be one of ['lockstep', 'realtime']"),
+    "lockstep.expected_subscribers:=-5": ("lockstep.expected_subscribers", "out of range"),
+    "lockstep.resend_period_s:=0.0": ("lockstep.resend_period_s", "out of range"),
+}
+
+
+@pytest.mark.ros
+@pytest.mark.skipif(
+    not WORKSPACE_SETUP.exists(),
+    reason="colcon workspace not built (bash tools/bootstrap builds it)",
+)
+@pytest.mark.parametrize("assignment", sorted(NODE_PARAMETER_CASES))
+def test_simulator_node_refuses_a_bad_own_parameter(assignment, tmp_path, ros_domain):
+    key, fragment = NODE_PARAMETER_CASES[assignment]
+    env = attitude_run.ros_environment()
+    env["ROS_DOMAIN_ID"] = str(ros_domain)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    shim = Path(sys.prefix) / "bin" / "ros2"
+    ros2 = str(shim) if shim.exists() else shutil.which("ros2", path=env["PATH"])
+    if ros2 is None:
+        pytest.skip("no ros2 command")
+    try:
+        proc = subprocess.run(
+            [ros2, "run", "spacecraft_sim", "rigid_body_sim", "--ros-args",
+             "--params-file", str(CASE1), "-p", assignment],
+            env=env, cwd=tmp_path, stdin=subprocess.DEVNULL, capture_output=True, text=True,
+            timeout=60,
+        )  # fmt: skip
+    except subprocess.TimeoutExpired as exc:
+        pytest.fail(f"the simulator accepted {assignment} and kept running: {exc.stderr}")
+    output = proc.stdout + proc.stderr
+    assert proc.returncode == 2, output
+    assert "Traceback" not in output
+    assert f"error: parameter: node '/rigid_body_sim' parameters: {key}: " in output, output
+    assert fragment in output, output
+
+
 # --- the documented decision: |sigma| > 1 is accepted through the shadow set ---------------
 
 

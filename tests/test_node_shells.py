@@ -33,6 +33,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
+from attitude_bringup.recorder_node import BagRecorderNode
 from attitude_controller.controller_node import PdControllerNode
 from attitude_core import (
     diagnostics,
@@ -379,6 +380,49 @@ def test_node_own_parameters_are_checked_by_their_rows(ros, key, value, reason):
         RigidBodySimNode(parameter_overrides=[Parameter(key, value=value)])
     assert info.value.key == key
     assert reason in str(info.value)
+
+
+def test_recorder_refuses_an_unknown_parameter_but_takes_a_shared_scenario_file(ros, tmp_path):
+    """The recorder reads no scenario: given the shared ``/**`` scenario file it ignores
+    the scenario's keys, but a typo in its own parameters is refused, not ignored."""
+    ros.init(CASE1)
+    with pytest.raises(NodeParameterError) as info:
+        BagRecorderNode(
+            parameter_overrides=[
+                Parameter("output_dir", value=str(tmp_path / "a")),
+                Parameter("stop_delay", value=5.0),  # a typo of stop_delay_s
+            ]
+        )
+    assert info.value.key == "stop_delay"
+    assert "did you mean 'stop_delay_s'?" in str(info.value)
+    assert not (tmp_path / "a").exists()  # nothing half-written
+    bag = tmp_path / "b"
+    recorder = ros.add(
+        BagRecorderNode(
+            parameter_overrides=[
+                Parameter("output_dir", value=str(bag)),
+                Parameter("stop_on_planner_status", value=[PlannerStatus.ARRIVED.value]),
+            ]
+        )
+    )
+    assert recorder.stop_on == {PlannerStatus.ARRIVED}
+    assert not recorder.has_parameter("dt_s")  # declares only its own table
+    recorder.close()
+    assert (bag / "metadata.yaml").is_file()
+
+
+def test_recorder_refuses_a_stop_status_that_is_not_a_planner_status(ros, tmp_path):
+    ros.init(CASE1)
+    with pytest.raises(NodeParameterError) as info:
+        BagRecorderNode(
+            parameter_overrides=[
+                Parameter("output_dir", value=str(tmp_path / "bag")),
+                Parameter("stop_on_planner_status", value=["arrivd"]),
+            ]
+        )
+    assert info.value.key == "stop_on_planner_status"
+    assert "'arrivd' is not a planner status" in str(info.value)
+    assert not (tmp_path / "bag").exists()
 
 
 def test_nodes_accept_an_injected_context(ros, scenario):

@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from .node_graph import PLANNER
 from .status import PlannerStatus
 
 __all__ = [
@@ -28,8 +29,8 @@ __all__ = [
     "PlannerDiagnostics",
 ]
 
-STATUS_NAME = "fepf_planner"  # DiagnosticStatus.name
-HARDWARE_ID = "attitude_planner"  # DiagnosticStatus.hardware_id
+STATUS_NAME: str = PLANNER.node_name  # DiagnosticStatus.name: the planner node's name
+HARDWARE_ID: str = PLANNER.package  # DiagnosticStatus.hardware_id: its package
 
 STATUS = "status"  # a PlannerStatus
 STEP_TIME_US = "step_time_us"  # wall time of the planner step, us

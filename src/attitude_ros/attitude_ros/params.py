@@ -15,6 +15,7 @@ so they resolve as ``load_scenario`` resolves them).
 
 from __future__ import annotations
 
+import difflib
 import os
 from typing import Any
 
@@ -25,7 +26,14 @@ from rclpy.parameter import Parameter
 
 from attitude_core.node_parameters import NodeParameters
 from attitude_core.parameters import NodeParameterError, Param, ParameterError, values_from
-from attitude_core.scenario import Scenario, ScenarioError, parse_scenario, scenario_keys
+from attitude_core.scenario import (
+    Scenario,
+    ScenarioError,
+    is_ros_builtin,
+    parse_scenario,
+    scenario_keys,
+)
+from attitude_core.scenario_schema import GROUPS
 
 __all__ = ["descriptor", "declare_node_parameters", "declare_scenario_node"]
 
@@ -101,7 +109,9 @@ def declare_node_parameters(
         if value is not None:
             given[row.key] = value
     own = values_from(table.own, given, source)  # rclpy checked type and range; rows the rest
+    overrides = getattr(node, "_parameter_overrides", {})  # rclpy keeps no public getter
     if table.scenario is None:
+        _refuse_unknown(node, overrides, table, source)
         return own, None
 
     flat: dict[str, Any] = {}
@@ -116,7 +126,6 @@ def declare_node_parameters(
     for row in names_rows:
         if table.reads_scenario_key(row.key):
             declare_scenario_row(row)
-    overrides = getattr(node, "_parameter_overrides", {})  # rclpy keeps no public getter
 
     def listed(group: str) -> tuple[str, ...]:
         names = flat.get(f"{group}.names")
@@ -144,3 +153,21 @@ def declare_scenario_node(node: Node, table: NodeParameters) -> tuple[dict[str, 
     if scenario is None:
         raise TypeError("declare_scenario_node: the table reads no scenario")
     return own, scenario
+
+
+def _refuse_unknown(
+    node: Node, overrides: dict[str, Any], table: NodeParameters, source: str
+) -> None:
+    """A node that takes no scenario refuses a parameter that is neither its own, nor a
+    scenario key (a shared ``/**`` parameters file may be given to it), nor one rclpy
+    declares by itself: a typo must not be ignored."""
+    own = [row.key for row in table.own]
+    scenario = {row.key for row in scenario_keys()}
+    for name in overrides:
+        if node.has_parameter(name) or name in scenario or is_ros_builtin(name):
+            continue
+        if name.split(".", 1)[0] in GROUPS:
+            continue
+        close = difflib.get_close_matches(name, own, n=1, cutoff=0.6)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise NodeParameterError(source, name, "unknown parameter" + hint)

@@ -14,6 +14,7 @@ import sys
 
 import numpy as np
 
+from attitude_core import diagnostics
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.scenario import ScenarioError, load_scenario
 from attitude_core.trajectory import RunResult, summarize
@@ -30,7 +31,7 @@ TIMESERIES_COLUMNS = (
     + [f"torque_b_{i}_nm" for i in (1, 2, 3)]
     + [f"sigma_t_{i}" for i in (1, 2, 3)]
     + [f"omega_t_{i}_rad_s" for i in (1, 2, 3)]
-    + ["min_margin_deg", "obstacle_distance_mrp", "planner_status"]
+    + ["min_margin_deg", diagnostics.OBSTACLE_DISTANCE_MRP, "planner_status"]
 )
 
 
