@@ -680,13 +680,14 @@ def test_controller_drop_fraction_bounds():
 def test_recorder_stop_status_row_refuses_a_non_status_name():
     stop = row("stop_on_planner_status", RECORDER.own)
     statuses = [s.value for s in PlannerStatus]
-    assert convert(stop, ["arrived", "stuck"], "rec") == ("arrived", "stuck")
+    arrived, stuck = PlannerStatus.ARRIVED.value, PlannerStatus.STUCK.value
+    assert convert(stop, [arrived, stuck], "rec") == (arrived, stuck)
     assert convert(stop, [""], "rec") == ("",)  # the default: no stop
     assert convert(stop, [], "rec") == ()
     assert stop.default == ("",)
-    assert reason(stop, ["arrived", "landed"]) == f"'landed' is not a planner status {statuses}"
+    assert reason(stop, [arrived, "landed"]) == f"'landed' is not a planner status {statuses}"
     assert reason(stop, ["ARRIVED"]) == f"'ARRIVED' is not a planner status {statuses}"
-    assert reason(stop, "arrived") == "expected a list of strings, got string 'arrived'"
+    assert reason(stop, arrived) == f"expected a list of strings, got string {arrived!r}"
     with pytest.raises(NodeParameterError):
         values_from(RECORDER.own, {"stop_on_planner_status": ["bogus"], "output_dir": "x"}, "r")
 
