@@ -81,59 +81,55 @@ def reserve_domain() -> DomainReservation:
     )
 
 
-class ClockProbe:
+class StepProbe:
     """An rclpy node (in a context of its own) on a reserved domain that follows the
-    simulator's ``/clock``, i.e. the simulated time ``k dt`` of the step it published last,
-    in lockstep and in real time alike. Best effort: it never holds back a publisher."""
+    plant's state steps: the distinct stamps of ``/spacecraft/attitude`` (simulated time
+    in lockstep, the plant's clock in real time). Best effort: it never holds back a
+    publisher, and may miss a sample, never invent one."""
 
     def __init__(self, domain_id: int) -> None:
         import rclpy
+        from geometry_msgs.msg import QuaternionStamped
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.qos import QoSProfile, ReliabilityPolicy
-        from rosgraph_msgs.msg import Clock
 
-        from attitude_core.topics import CLOCK
+        from attitude_core.topics import ATTITUDE
 
-        self.clock_ns = -1  # latest simulated time seen; -1: none yet
+        self.stamps: set[int] = set()  # state stamps seen, ns
         self.ctx = rclpy.Context()
         rclpy.init(context=self.ctx, domain_id=domain_id)
-        self.node = rclpy.create_node("clock_probe", context=self.ctx)
+        self.node = rclpy.create_node("step_probe", context=self.ctx)
         self.node.create_subscription(
-            Clock,
-            CLOCK,
-            self._on_clock,
+            QuaternionStamped,
+            ATTITUDE,
+            self._on_state,
             QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
         )
         self.executor = SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.node)
 
-    def _on_clock(self, msg) -> None:
-        self.clock_ns = max(self.clock_ns, msg.clock.sec * 10**9 + msg.clock.nanosec)
+    def _on_state(self, msg) -> None:
+        self.stamps.add(msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec)
 
-    @property
-    def clock_s(self) -> float:
-        return self.clock_ns * 1e-9
-
-    def wait_clock(self, t_s: float, timeout_s: float = 120.0, alive=lambda: True) -> float:
-        """Spin until the simulated time reaches ``t_s``; fail after ``timeout_s`` of wall
+    def wait_steps(self, n: int, timeout_s: float = 120.0, alive=lambda: True) -> int:
+        """Spin until ``n`` distinct states were seen; fail after ``timeout_s`` of wall
         time, or as soon as ``alive()`` is false (e.g. the process under test exited).
-        Returns the simulated time seen."""
+        Returns the number seen."""
         deadline = time.monotonic() + timeout_s
-        while self.clock_ns < round(t_s * 1e9):
+        while len(self.stamps) < n:
             if not alive():
                 pytest.fail(
-                    f"the process under test exited; simulated time at "
-                    f"{self.clock_s} s, waiting for {t_s} s",
+                    f"the process under test exited after {len(self.stamps)} states, "
+                    f"waiting for {n}",
                     pytrace=False,
                 )
             if time.monotonic() > deadline:
                 pytest.fail(
-                    f"simulated time stuck at {self.clock_s} s after {timeout_s} s "
-                    f"(waiting for {t_s} s)",
+                    f"{len(self.stamps)} states after {timeout_s} s, waiting for {n}",
                     pytrace=False,
                 )
             self.executor.spin_once(timeout_sec=0.05)
-        return self.clock_s
+        return len(self.stamps)
 
     def close(self) -> None:
         self.executor.shutdown()
@@ -166,12 +162,12 @@ def ros_env(ros_domain):
 
 
 @pytest.fixture
-def clock_probe(ros_domain, monkeypatch):
-    """A :class:`ClockProbe` on the test's reserved domain (localhost discovery, like the
+def step_probe(ros_domain, monkeypatch):
+    """A :class:`StepProbe` on the test's reserved domain (localhost discovery, like the
     environment of ``ros_env``); closed after the test."""
     monkeypatch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
     monkeypatch.delenv("ROS_STATIC_PEERS", raising=False)
     monkeypatch.delenv("ROS_LOCALHOST_ONLY", raising=False)
-    probe = ClockProbe(ros_domain)
+    probe = StepProbe(ros_domain)
     yield probe
     probe.close()

@@ -269,7 +269,7 @@ def _pid_of(executable: str, domain: int) -> int | None:
 
 
 def test_simulator_killed_still_leaves_a_readable_bag_and_summary(
-    tmp_path, ros_domain, ros_env, clock_probe
+    tmp_path, ros_domain, ros_env, step_probe
 ):
     out = tmp_path / "crashed"
     proc = subprocess.Popen(
@@ -288,8 +288,8 @@ def test_simulator_killed_still_leaves_a_readable_bag_and_summary(
         text=True,
     )
     try:
-        # some real-time steps: 20 steps of simulated time (dt 0.1 s), seen on /clock
-        clock_probe.wait_clock(2.0, WAIT_S, alive=lambda: proc.poll() is None)
+        # some real-time steps: 20 states seen
+        step_probe.wait_steps(20, WAIT_S, alive=lambda: proc.poll() is None)
         pid = _pid_of("rigid_body_sim", ros_domain)
         assert pid is not None
         os.kill(pid, signal.SIGKILL)

@@ -54,6 +54,7 @@ from attitude_core.status import PlannerStatus
 from attitude_planner.planner_node import FepfPlannerNode
 from attitude_ros import contract as c
 from attitude_ros.convert import set_stamp, stamp_ns
+from attitude_tools.bag_run import scenario_from_bag
 from spacecraft_sim.sim_node import RigidBodySimNode
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -382,9 +383,11 @@ def test_node_own_parameters_are_checked_by_their_rows(ros, key, value, reason):
     assert reason in str(info.value)
 
 
-def test_recorder_refuses_an_unknown_parameter_but_takes_a_shared_scenario_file(ros, tmp_path):
-    """The recorder reads no scenario: given the shared ``/**`` scenario file it ignores
-    the scenario's keys, but a typo in its own parameters is refused, not ignored."""
+def test_recorder_refuses_an_unknown_parameter_but_takes_a_shared_scenario_file(
+    ros, tmp_path, scenario
+):
+    """The recorder declares no scenario key: given the shared ``/**`` scenario file it
+    attaches that scenario to the bag, but a typo in its own parameters is refused."""
     ros.init(CASE1)
     with pytest.raises(NodeParameterError) as info:
         BagRecorderNode(
@@ -405,10 +408,20 @@ def test_recorder_refuses_an_unknown_parameter_but_takes_a_shared_scenario_file(
             ]
         )
     )
-    assert recorder.stop_on == {PlannerStatus.ARRIVED}
+    assert recorder.stop.stop_on == {PlannerStatus.ARRIVED}
     assert not recorder.has_parameter("dt_s")  # declares only its own table
     recorder.close()
     assert (bag / "metadata.yaml").is_file()
+    # The scenario it was given (the nodes' --params-file) travels in the bag.
+    attached = scenario_from_bag(str(bag))
+    for field in dataclasses.fields(Scenario):
+        if field.name == "source":
+            continue
+        got, want = getattr(attached, field.name), getattr(scenario, field.name)
+        if isinstance(want, np.ndarray):
+            np.testing.assert_array_equal(got, want, err_msg=field.name)
+        else:
+            assert got == want, field.name
 
 
 def test_recorder_refuses_a_stop_status_that_is_not_a_planner_status(ros, tmp_path):

@@ -11,8 +11,9 @@ from catkin_pkg.package import parse_package
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / 'src'
-NODE_PACKAGES = ['attitude_planner', 'attitude_controller', 'spacecraft_sim']
-PACKAGES = NODE_PACKAGES + ['attitude_ros', 'attitude_bringup']
+# Every ament package under src/ (a package.xml), found at run time: a new package is
+# checked without editing this file.
+PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / 'package.xml').is_file())
 # ROS packages of full installs only (no PyPI wheels): the launch file needs them.
 FULL_INSTALL_ONLY = {'launch', 'launch_ros'}
 # Pure pip packages in src/ (pyproject.toml, installed into .venv): colcon must skip them.
@@ -174,7 +175,7 @@ def test_colcon_skips_pip_packages(pkg):
 # Each ROS package or system key imported must be an exec_depend, and each exec_depend must
 # be imported, apart from the documented exceptions below.
 
-AMENT_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / 'package.xml').is_file())
+AMENT_PACKAGES = PACKAGES
 # Third-party modules that are not ROS packages: module name -> rosdep key.
 SYSTEM_KEYS = {'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml'}
 # Documented exceptions: package -> {exec_depend: why it is declared without being imported}.
@@ -384,3 +385,17 @@ def test_exec_depends_match_the_imports(pkg):
     )
     stale = sorted(set(exceptions) - declared)
     assert not stale, f'EXEC_DEPEND_EXCEPTIONS[{pkg!r}] names undeclared dependencies: {stale}'
+
+
+def test_pip_check_is_clean_in_the_venv():
+    """Every installed distribution's requirements are met (an editable package that names
+    a dependency by a distribution name nobody installs shows up here)."""
+    import subprocess
+
+    proc = subprocess.run(
+        [sys.executable, '-m', 'pip', 'check', '--disable-pip-version-check'],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr

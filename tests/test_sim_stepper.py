@@ -52,7 +52,8 @@ def start(stepper: SimStepper, now: float = T0) -> tuple[Decision, float]:
     return d, t
 
 
-def assert_state(state, k: int, stamp_ns: int, clock_ns: int, ref: RigidBody) -> None:
+def assert_state(state, k: int, stamp_ns: int, clock_ns: int | None, ref: RigidBody) -> None:
+    """``clock_ns`` None: real time, where no /clock is published."""
     assert (state.k, state.stamp_ns, state.clock_ns) == (k, stamp_ns, clock_ns)
     np.testing.assert_allclose(state.sigma_bn, ref.sigma_bn, rtol=0, atol=EXACT)
     np.testing.assert_allclose(state.omega_b, ref.omega_b, rtol=0, atol=EXACT)
@@ -396,6 +397,23 @@ def test_lockstep_non_finite_torque_is_rejected_and_counted():
     assert s.on_torque(t, 0, np.zeros(3)).action is Action.ADVANCE
 
 
+@pytest.mark.parametrize("mode", [LOCKSTEP, REALTIME])
+def test_torque_in_another_frame_is_rejected_and_counted(mode):
+    """The contract's torque is in body axes (frame ``body``): anything else is refused,
+    counted, and changes nothing."""
+    s = make(time_mode=mode)
+    _, t = start(s)
+    u = torques(1)[0]
+    for n, frame in enumerate(("inertial", "", "Body"), 1):
+        d = s.on_torque(t, 0, u, frame)
+        assert d.action is Action.REJECT and d.state is None and d.applied is None
+        assert d.reason == f"frame_id {frame!r}, expected 'body'"
+        assert s.rejected == n
+    assert s.k == 0 and s.torque_stamp == -1
+    accepted = s.on_torque(t, 0, u, "body").action
+    assert accepted is (Action.ADVANCE if mode == LOCKSTEP else Action.ACCEPT)
+
+
 def test_lockstep_deadline_without_a_waiting_state_does_nothing():
     """Defensive guard: reachable only with no state awaiting its torque."""
     s = make(torque_timeout_s=1.0)
@@ -415,7 +433,7 @@ def test_realtime_ticks_step_with_the_latest_torque():
     clock = 7_000_000_123  # node clock, ns: the stamp of the states
     d = s.on_timer(t, clock)
     assert d.action is Action.ADVANCE and d.applied is None and d.applied_stamp_ns is None
-    assert_state(d.state, 0, clock, 0, ref)
+    assert_state(d.state, 0, clock, None, ref)
     previous = clock
     for k, u in enumerate(torques(3), start=1):
         a = s.on_torque(t + 0.05, previous, u)
@@ -426,14 +444,14 @@ def test_realtime_ticks_step_with_the_latest_torque():
         ref.step(u, DT)
         assert_torque(d.applied, u)
         assert d.applied_stamp_ns == previous
-        assert_state(d.state, k, clock, k * DT_NS, ref)
+        assert_state(d.state, k, clock, None, ref)
         previous = clock
     # No new torque: the last one is held while fresh.
     t += DT
     d = s.on_timer(t, clock + 1)
     ref.step(torques(3)[-1], DT)
     assert d.action is Action.ADVANCE
-    assert_state(d.state, 4, clock + 1, 4 * DT_NS, ref)
+    assert_state(d.state, 4, clock + 1, None, ref)
 
 
 def test_realtime_older_torque_is_rejected():
@@ -481,7 +499,7 @@ def test_realtime_stale_torque_applies_zero_until_a_torque_arrives():
     ]
     ref.step(np.zeros(3), DT)
     assert_torque(d.applied, np.zeros(3))
-    assert_state(d.state, 2, 2, 2 * DT_NS, ref)
+    assert_state(d.state, 2, 2, None, ref)
     d = s.on_timer(t + 0.61, 3)
     assert d.action is Action.ZERO and d.logs == []
     ref.step(np.zeros(3), DT)
@@ -492,7 +510,7 @@ def test_realtime_stale_torque_applies_zero_until_a_torque_arrives():
     assert d.action is Action.ADVANCE and d.logs == []
     ref.step(u2, DT)
     assert_torque(d.applied, u2)
-    assert_state(d.state, 4, 4, 4 * DT_NS, ref)
+    assert_state(d.state, 4, 4, None, ref)
 
 
 def test_realtime_finish_after_n_steps_plus_one_ticks():
@@ -507,7 +525,7 @@ def test_realtime_finish_after_n_steps_plus_one_ticks():
         assert d.action is Action.ADVANCE and d.state.k == k
         if k:
             ref.step(u, DT)
-        assert_state(d.state, k, 100 + k, k * DT_NS, ref)
+        assert_state(d.state, k, 100 + k, None, ref)
     assert not s.done
     d = s.on_timer(t + 1.0, 200)
     assert d.action is Action.FINISH and d.exit_code == 0

@@ -33,10 +33,12 @@ from rclpy.serialization import deserialize_message
 from attitude_core import node_graph
 from attitude_core.diagnostics import PlannerDiagnostics
 from attitude_core.parameters import NodeParameterError
+from attitude_core.recording import Outcome, StopRule
+from attitude_core.scenario import is_ros_builtin, loads_scenario, scenario_yaml
 from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
-from attitude_ros.params import declare_node_parameters
-from attitude_ros.runner import run
+from attitude_ros.params import declare_node_parameters, plain_value
+from attitude_ros.runner import EXIT_NO_PLANT, run
 from attitude_tools.bag import BagWriter, qos_profile_yaml
 
 
@@ -51,25 +53,25 @@ class BagRecorderNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(node_graph.RECORDER.node_name, **kwargs)
         own, _ = declare_node_parameters(self, node_graph.RECORDER.parameters)
+        source = f"node '{self.get_fully_qualified_name()}' parameters"
         self.output_dir = own["output_dir"]
         if not self.output_dir:
-            raise NodeParameterError(
-                f"node '{self.get_name()}' parameters", "output_dir", "missing required parameter"
-            )
-        self.stop_on = {PlannerStatus.parse(s) for s in own["stop_on_planner_status"] if s}
-        self.stop_delay_ns = int(c.NS_PER_S * own["stop_delay_s"])
-        self.stop_at_ns: int | None = None
-        self.passed_stop: set[str] = set()
-        self.stamped_topics = {t.name for t in c.TOPICS if t.stamped}
-        scenario_file = own["scenario_file"]
-        self.done = False
-        self.exit_code = 0
-        self._drain_count = -1
+            raise NodeParameterError(source, "output_dir", "missing required parameter")
+        scenario_text = self.scenario_text(own["scenario_file"], source)
+        scenario = loads_scenario(scenario_text, source) if scenario_text else None
+        self.stop = StopRule(
+            {PlannerStatus.parse(s) for s in own["stop_on_planner_status"] if s},
+            own["stop_delay_s"],
+            started=time.monotonic(),
+            scenario_time_s=None if scenario is None else scenario.sim_time_s,
+            plant_timeout_s=own["plant_timeout_s"],
+        )
+        self.done, self.exit_code, self._drain_count = False, 0, -1
         self.last_stamp_ns: int | None = None
+        self.unstamped: list[tuple[str, bytes, int]] = []  # before the first stamp
         self.writer = BagWriter(self.output_dir)
-        if scenario_file:
-            with open(scenario_file, "rb") as f:
-                self.writer.add_attachment("scenario.yaml", f.read(), "application/yaml")
+        if scenario_text:
+            self.writer.add_attachment("scenario.yaml", scenario_text.encode(), "application/yaml")
         for topic in c.TOPICS:
             pub_qos = c.qos(topic)
             self.writer.add_topic(
@@ -88,31 +90,54 @@ class BagRecorderNode(Node):
                 self.callback(topic),
                 c.recorder_qos(topic),
                 raw=True,
+                qos_overriding_options=c.state_qos_overrides(topic),
             )
+        self.create_timer(0.1, self.check_outcome)
+        stops = sorted(s.value for s in self.stop.stop_on)
         self.get_logger().info(
             f"recording {len(c.TOPICS)} topics to {self.output_dir}"
-            + (f"; stops on status {sorted(s.value for s in self.stop_on)}" if self.stop_on else "")
+            + (f"; stops on status {stops}" if stops else "")
+            + ("" if scenario is None else f"; scenario '{scenario.name}' attached")
         )
+
+    def scenario_text(self, scenario_file: str, source: str) -> str | None:
+        """The scenario to attach: ``scenario_file``, else the scenario parameters given
+        to this node (the nodes' ``--params-file``), else None."""
+        if scenario_file:
+            with open(scenario_file, encoding="utf-8") as f:
+                return f.read()
+        own = {row.key for row in node_graph.RECORDER.parameters.own}
+        overrides = getattr(self, "_parameter_overrides", {})  # rclpy: no public getter
+        flat = {
+            key: plain_value(parameter.value)
+            for key, parameter in overrides.items()
+            if key not in own and not is_ros_builtin(key)
+        }
+        return scenario_yaml(flat) if flat else None
 
     def callback(self, topic):
         name, stamped = topic.name, topic.stamped
-        watch = name == c.DIAGNOSTICS and bool(self.stop_on)
-        markers = tuple(status.value.encode() for status in self.stop_on)
+        watch = name == c.DIAGNOSTICS and bool(self.stop.stop_on)
+        markers = tuple(status.value.encode() for status in self.stop.stop_on)
 
         def on_message(data: bytes) -> None:
             wall = time.time_ns()
-            if stamped:
-                log_time = _stamp_ns(data)
-                if self.stop_at_ns is not None and log_time > self.stop_at_ns:
-                    self.passed_stop.add(name)
-                    if self.passed_stop >= self.stamped_topics:
-                        self.done = True
-                    return
-                self.last_stamp_ns = max(log_time, self.last_stamp_ns or log_time)
-            else:
-                log_time = wall if self.last_stamp_ns is None else self.last_stamp_ns
+            if not stamped:  # logged at the latest stamp, so the bag is on the run's timeline
+                if self.last_stamp_ns is None:
+                    self.unstamped.append((name, data, wall))
+                else:
+                    self.writer.write(name, data, self.last_stamp_ns, wall)
+                return
+            log_time = _stamp_ns(data)
+            if not self.stop.on_stamped(name, log_time, time.monotonic()):
+                self.check_outcome()
+                return
+            self.last_stamp_ns = max(log_time, self.last_stamp_ns or log_time)
+            for held in self.unstamped:
+                self.writer.write(held[0], held[1], log_time, held[2])
+            self.unstamped.clear()
             self.writer.write(name, data, log_time, wall)
-            if watch and self.stop_at_ns is None and any(m in data for m in markers):
+            if watch and any(m in data for m in markers):
                 self.check_stop(data, log_time)
 
         return on_message
@@ -122,20 +147,27 @@ class BagRecorderNode(Node):
         stamp plus ``stop_delay_s``, once every stamped topic has got there."""
         for st in deserialize_message(data, DiagnosticArray).status:
             try:
-                status = PlannerDiagnostics.from_values(
-                    {kv.key: kv.value for kv in st.values}
-                ).status
+                values = {kv.key: kv.value for kv in st.values}
+                status = PlannerDiagnostics.from_values(values).status
             except ValueError:  # another node's diagnostics
                 continue
-            if status in self.stop_on:
-                break
-        else:
-            return
-        self.stop_at_ns = stamp_ns + self.stop_delay_ns
-        self.get_logger().info(
-            f"planner status {status.value!r} at {stamp_ns / 1e9:.3f} s: recording until "
-            f"{self.stop_at_ns / 1e9:.3f} s"
-        )
+            if self.stop.on_status(status, stamp_ns):
+                self.get_logger().info(
+                    f"planner status {status.value!r} at {stamp_ns / 1e9:.3f} s: recording "
+                    f"until {self.stop.stop_at_ns / 1e9:.3f} s"
+                )
+
+    def check_outcome(self) -> None:
+        outcome = self.stop.poll(time.monotonic())
+        if outcome is Outcome.NO_PLANT and not self.done:
+            self.get_logger().error(
+                f"no state on {c.ATTITUDE} after {self.stop.plant_timeout_s} s: is the "
+                "simulator or the bridge running, on this ROS_DOMAIN_ID?"
+            )
+            self.done, self.exit_code = True, EXIT_NO_PLANT
+        elif outcome is Outcome.DONE and not self.done:
+            self.get_logger().info(f"recording complete ({self.stop.reason})")
+            self.done = True
 
     def drained(self) -> bool:
         """True when nothing was written since the previous call (the runner drains the

@@ -26,6 +26,7 @@ from attitude_core import node_graph
 from attitude_core.control import PdGains, pd_torque
 from attitude_ros import contract as c
 from attitude_ros.convert import (
+    bad_frame,
     bad_quaternion,
     bad_vector,
     mrp_from_quaternion,
@@ -66,6 +67,7 @@ class PdControllerNode(Node):
                 name,
                 self.callback(slot, name, convert),
                 c.qos(c.topic(name), subscriber=True),
+                qos_overriding_options=c.state_qos_overrides(c.topic(name)),
             )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': Kp = {self.scenario.kp_over_j} J, "
@@ -94,7 +96,9 @@ class PdControllerNode(Node):
             if self.last_stamp is not None and stamp < self.last_stamp:
                 reason = f"stamp {stamp} ns is older than the last torque's {self.last_stamp} ns"
             else:
-                value, reason = convert(msg)
+                reason = bad_frame(msg, name)
+                if reason is None:
+                    value, reason = convert(msg)
             if reason:
                 reject(self, name, reason)
                 return

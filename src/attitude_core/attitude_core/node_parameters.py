@@ -160,6 +160,14 @@ RECORDER = NodeParameters(
             Bounds(0.0, 3600.0),
         ),
         Param(
+            "plant_timeout_s",
+            "float",
+            "fail when no state (/spacecraft/attitude) arrives within this wall time, s "
+            "(0: wait for ever)",
+            0.0,
+            Bounds(0.0, 3600.0),
+        ),
+        Param(
             "scenario_file",
             "path",
             "scenario file stored in the bag as the attachment scenario.yaml",

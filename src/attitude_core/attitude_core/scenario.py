@@ -71,6 +71,8 @@ __all__ = [
     "parse_scenario",
     "flatten_parameters",
     "scenario_keys",
+    "scenario_yaml",
+    "is_ros_builtin",
 ]
 
 _ROS_BUILTIN_BOOLS = ("use_sim_time", "start_type_description_service")
@@ -307,6 +309,20 @@ def parse_scenario(
                 ),
             )
     return scenario
+
+
+def scenario_yaml(flat: dict[str, Any]) -> str:
+    """A scenario file's text (``/**: ros__parameters:``) from dotted parameter values,
+    e.g. those a node was given: ``loads_scenario`` reads it back to the same values."""
+    nested: dict[str, Any] = {}
+    for key, value in sorted(flat.items()):
+        node = nested
+        *parents, leaf = key.split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[leaf] = list(value) if isinstance(value, tuple) else value
+    text: str = yaml.safe_dump({"/**": {"ros__parameters": nested}}, sort_keys=False)
+    return text
 
 
 def load_scenario(path: str | Path) -> Scenario:

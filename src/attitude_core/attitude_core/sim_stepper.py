@@ -35,6 +35,7 @@ import numpy.typing as npt
 from .dynamics import RigidBody
 from .node_parameters import LOCKSTEP, TIME_MODES
 from .scenario import Scenario
+from .topics import BODY_FRAME
 
 __all__ = ["Action", "StepperConfig", "StateOut", "Decision", "SimStepper", "SETTLE_S"]
 
@@ -96,11 +97,13 @@ class StepperConfig:
 
 @dataclass(frozen=True)
 class StateOut:
-    """A state to publish: ``stamp_ns`` on attitude and rate, ``clock_ns`` on ``/clock``."""
+    """A state to publish: ``stamp_ns`` on attitude and rate; ``clock_ns`` on ``/clock``
+    in lockstep, where it is the simulated time the stamps carry (None in real time:
+    there the stamps are the node's clock and no ``/clock`` is published)."""
 
     k: int
     stamp_ns: int
-    clock_ns: int
+    clock_ns: int | None
     sigma_bn: Vector
     omega_b: Vector
 
@@ -186,9 +189,13 @@ class SimStepper:
 
     # -- inputs ---------------------------------------------------------------------
 
-    def on_torque(self, now: float, stamp_ns: int, torque: Vector) -> Decision:
-        """A commanded torque (body axes, N m) stamped ``stamp_ns``."""
+    def on_torque(
+        self, now: float, stamp_ns: int, torque: Vector, frame_id: str = BODY_FRAME
+    ) -> Decision:
+        """A commanded torque (body axes, N m) stamped ``stamp_ns``, in ``frame_id``."""
         u = np.asarray(torque, dtype=float)
+        if frame_id != BODY_FRAME:
+            return self._reject(f"frame_id {frame_id!r}, expected {BODY_FRAME!r}")
         if not all(math.isfinite(x) for x in u):
             return self._reject(f"torque has a non-finite element {u.tolist()}")
         if self.done:
@@ -294,7 +301,7 @@ class SimStepper:
     # -- shared ---------------------------------------------------------------------
 
     def _state(self, now: float, stamp_ns: int) -> StateOut:
-        clock_ns = self.k * self.dt_ns
+        clock_ns = self.k * self.dt_ns if self.lockstep else None
         self.state_stamp = stamp_ns
         if self.lockstep:
             self.waiting_stamp = stamp_ns

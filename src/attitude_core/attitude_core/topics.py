@@ -65,17 +65,26 @@ class Topic(NamedTuple):
     type_name: str  # pkg/msg/Type
     stamped: bool  # first field is a header (or a Time): the recorder logs at that stamp
     latched: bool = False
+    frame: str | None = None  # the header's frame_id, checked by the receivers
 
 
 TOPICS = (
     Topic(CLOCK, "rosgraph_msgs/msg/Clock", True),
-    Topic(ATTITUDE, "geometry_msgs/msg/QuaternionStamped", True),
-    Topic(ANGULAR_VELOCITY, "geometry_msgs/msg/Vector3Stamped", True),
-    Topic(TARGET_MRP, "geometry_msgs/msg/Vector3Stamped", True),
-    Topic(TARGET_RATE, "geometry_msgs/msg/Vector3Stamped", True),
+    Topic(ATTITUDE, "geometry_msgs/msg/QuaternionStamped", True, frame=INERTIAL_FRAME),
+    Topic(ANGULAR_VELOCITY, "geometry_msgs/msg/Vector3Stamped", True, frame=BODY_FRAME),
+    Topic(TARGET_MRP, "geometry_msgs/msg/Vector3Stamped", True, frame=INERTIAL_FRAME),
+    Topic(TARGET_RATE, "geometry_msgs/msg/Vector3Stamped", True, frame=TARGET_FRAME),
     Topic(PLANNER_STATUS, "std_msgs/msg/String", False, latched=True),
     Topic(KEEP_OUT_MARGIN, "std_msgs/msg/Float64", False),
     Topic(DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray", True),
-    Topic(TORQUE, "geometry_msgs/msg/WrenchStamped", True),
-    Topic(APPLIED_TORQUE, "geometry_msgs/msg/WrenchStamped", True),
+    Topic(TORQUE, "geometry_msgs/msg/WrenchStamped", True, frame=BODY_FRAME),
+    Topic(APPLIED_TORQUE, "geometry_msgs/msg/WrenchStamped", True, frame=BODY_FRAME),
 )
+
+
+def topic(name: str) -> Topic:
+    """The contract entry of a topic name (KeyError if none)."""
+    for t in TOPICS:
+        if t.name == name:
+            return t
+    raise KeyError(name)

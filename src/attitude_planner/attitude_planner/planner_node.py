@@ -28,7 +28,14 @@ from attitude_core import diagnostics, node_graph
 from attitude_core.fepf import FepfPlanner, PlannerOutput
 from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
-from attitude_ros.convert import bad_quaternion, mrp_from_quaternion, reject, set_vector3, stamp_ns
+from attitude_ros.convert import (
+    bad_frame,
+    bad_quaternion,
+    mrp_from_quaternion,
+    reject,
+    set_vector3,
+    stamp_ns,
+)
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.runner import run
 
@@ -59,6 +66,7 @@ class FepfPlannerNode(Node):
             c.ATTITUDE,
             self.on_attitude,
             c.qos(c.topic(c.ATTITUDE), subscriber=True),
+            qos_overriding_options=c.state_qos_overrides(c.topic(c.ATTITUDE)),
         )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': FEPF variant {self.scenario.planner.variant}, "
@@ -78,7 +86,7 @@ class FepfPlannerNode(Node):
                     f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns",
                 )
             return
-        reason = bad_quaternion(msg.quaternion)
+        reason = bad_frame(msg, c.ATTITUDE) or bad_quaternion(msg.quaternion)
         if reason:
             reject(self, c.ATTITUDE, reason)
             return

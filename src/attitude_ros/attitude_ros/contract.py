@@ -6,14 +6,17 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from attitude_core.topics import *  # noqa: F403 - the contract's names, re-exported
-from attitude_core.topics import CLOCK, HISTORY_DEPTH, TOPICS, Topic  # noqa: F401
+from attitude_core.topics import CLOCK, HISTORY_DEPTH, TOPICS, Topic, topic  # noqa: F401
 
 if TYPE_CHECKING:
     from rclpy.qos import QoSProfile
+    from rclpy.qos_overriding_options import QoSOverridingOptions
+
+STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)  # noqa: F405 - from the contract's names
 
 
-def qos(topic: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:
-    """QoS of a contract topic.
+def qos(entry: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:
+    """QoS of a contract entry.
 
     Publishers: reliable, volatile, keep-all: a sample leaves the writer only when every
     reader has it, so a recorder that falls behind a lockstep run delays it but loses
@@ -24,7 +27,7 @@ def qos(topic: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:
     """
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-    latched = topic is not None and topic.latched
+    latched = entry is not None and entry.latched
     # rclpy leaves QoSProfile.__init__(**kwargs) unannotated: hence the ignores.
     if latched:
         return QoSProfile(
@@ -41,12 +44,12 @@ def qos(topic: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:
     )
 
 
-def recorder_qos(topic: Topic) -> QoSProfile:
+def recorder_qos(entry: Topic) -> QoSProfile:
     """QoS of the recorder's subscription: keep-all, and transient-local on latched topics."""
     from rclpy.qos import HistoryPolicy
 
-    profile = qos(topic)
-    if not topic.latched:
+    profile = qos(entry)
+    if not entry.latched:
         profile.history = HistoryPolicy.KEEP_ALL
     return profile
 
@@ -60,9 +63,15 @@ def message_class(type_name: str) -> type[Any]:
     return cls
 
 
-def topic(name: str) -> Topic:
-    """The contract entry of a topic name."""
-    for t in TOPICS:
-        if t.name == name:
-            return t
-    raise KeyError(name)
+def state_qos_overrides(entry: Topic) -> QoSOverridingOptions | None:
+    """ROS 2's standard QoS overrides on the state subscriptions (planner, controller,
+    recorder), so a best-effort (sensor-data) state publisher can be connected with
+    ``-p qos_overrides./spacecraft/attitude.subscription.reliability:=best_effort``
+    (and the same for ``/spacecraft/angular_velocity``). The default stays reliable:
+    lossless lockstep with the project's simulator. None for every other entry."""
+    if entry.name not in STATE_TOPICS:
+        return None
+    from rclpy.qos_overriding_options import QoSOverridingOptions
+
+    options: QoSOverridingOptions = QoSOverridingOptions.with_default_policies()
+    return options

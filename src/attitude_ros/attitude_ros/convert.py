@@ -15,6 +15,7 @@ import numpy.typing as npt
 from attitude_core.mrp import Vec3Like, mrp_from_quat, quat_from_mrp
 from attitude_core.topics import NS_PER_S, Stamp
 from attitude_core.topics import stamp_ns as stamp_ns  # re-exported for the nodes
+from attitude_core.topics import topic as contract_topic
 
 # ROS messages, nodes and loggers are typed Any: the message packages ship no type
 # information, and only their attributes are used here.
@@ -69,6 +70,15 @@ def log_events(logger: Any, events: Iterable[tuple[str, str]]) -> None:
             logger.warning(text)
         else:
             logger.info(text)
+
+
+def bad_frame(msg: Any, topic: str) -> str | None:
+    """Reason a stamped message is in the wrong frame for its contract topic, else None."""
+    expected = contract_topic(topic).frame
+    frame = msg.header.frame_id
+    if expected is not None and frame != expected:
+        return f"frame_id {frame!r}, expected {expected!r}"
+    return None
 
 
 def bad_vector(values: Sequence[float] | npt.NDArray[np.float64], name: str) -> str | None:

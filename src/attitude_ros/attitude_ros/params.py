@@ -35,7 +35,7 @@ from attitude_core.scenario import (
 )
 from attitude_core.scenario_schema import GROUPS
 
-__all__ = ["descriptor", "declare_node_parameters", "declare_scenario_node"]
+__all__ = ["descriptor", "declare_node_parameters", "declare_scenario_node", "plain_value"]
 
 _TYPES = {
     "double": (Parameter.Type.DOUBLE, ParameterType.PARAMETER_DOUBLE),
@@ -65,7 +65,7 @@ def descriptor(row: Param) -> ParameterDescriptor:
     return d
 
 
-def _plain(value: Any) -> Any:
+def plain_value(value: Any) -> Any:
     """rclpy arrays (array.array, numpy) -> lists, as the YAML loader would give them."""
     if isinstance(value, (str, bool, int, float)) or value is None:
         return value
@@ -85,7 +85,7 @@ def _declare(
         value = list(row.default) if isinstance(row.default, tuple) else row.default
     try:
         node.declare_parameter(row.key, value, descriptor(row))
-        return _plain(node.get_parameter(row.key).value)
+        return plain_value(node.get_parameter(row.key).value)
     except ParameterUninitializedException:
         return None
     except Exception as exc:  # rclpy: InvalidParameterTypeException, ...ValueException
@@ -130,7 +130,7 @@ def declare_node_parameters(
     def listed(group: str) -> tuple[str, ...]:
         names = flat.get(f"{group}.names")
         if names is None and f"{group}.names" in overrides:
-            names = _plain(overrides[f"{group}.names"].value)
+            names = plain_value(overrides[f"{group}.names"].value)
         # Each distinct name once: a duplicate is the loader's to report, on the list.
         return tuple(dict.fromkeys(n for n in (names or ()) if isinstance(n, str)))
 
@@ -140,7 +140,7 @@ def declare_node_parameters(
     # Every other parameter given to this node: scenario keys it does not read, and typos.
     for name, parameter in overrides.items():
         if not node.has_parameter(name):
-            flat[name] = _plain(parameter.value)
+            flat[name] = plain_value(parameter.value)
     scenario = parse_scenario(
         flat, source, base_dir=os.getcwd(), also_known=tuple(r.key for r in table.own)
     )

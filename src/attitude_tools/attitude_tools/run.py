@@ -32,11 +32,15 @@ from attitude_core import node_graph as graph
 from attitude_core.node_graph import NodeSpec
 from attitude_core.scenario import ScenarioError, load_scenario
 from attitude_core.status import PlannerStatus
+from attitude_core.topics import ATTITUDE
 
 from .bag_run import run_from_bag, summarize_bag
 from .rundir import check_replaceable, publish, stage
 
 ROLES = tuple(n.role for n in graph.NODES)
+PLANT_SIM, PLANT_EXTERNAL = "sim", "external"
+PLANTS = (PLANT_SIM, PLANT_EXTERNAL)
+EXIT_NO_PLANT = 3  # the recorder's exit code when no state arrived (attitude_ros.runner)
 # Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
 # queues for up to 1.5 s and finishes the bag).
 NODE_GRACE_S, RECORDER_GRACE_S = 1.5, 3.0
@@ -151,12 +155,19 @@ def run_scenario(
     settle_s: float = 10.0,
     log=print,
     node_params: dict[str, list[str]] | None = None,
+    plant: str = PLANT_SIM,
+    plant_timeout_s: float = 60.0,
 ) -> tuple[dict, Path]:
     """Run one scenario through the node graph; return (summary, run directory).
 
     ``node_params`` maps a node's log name (recorder, planner, controller, simulator)
-    to extra ``NAME:=VALUE`` parameters for it.
+    to extra ``NAME:=VALUE`` parameters for it. ``plant``: ``sim`` starts
+    ``rigid_body_sim``; ``external`` starts no plant and waits up to ``plant_timeout_s``
+    for one (a hardware-in-the-loop bridge) to publish the state.
     """
+    if plant not in PLANTS:
+        raise ValueError(f"plant must be one of {list(PLANTS)}, got {plant!r}")
+    started = [n for n in graph.NODES if plant == PLANT_SIM or n is not graph.SIMULATOR]
     extra = {
         name: [arg for p in (node_params or {}).get(name, ()) for arg in ("-p", p)]
         for name in ROLES
@@ -168,8 +179,9 @@ def run_scenario(
     ros2 = shutil.which("ros2", path=env["PATH"])
     if ros2 is None:
         raise RunError("no `ros2` command on PATH (run `bash tools/bootstrap`)")
-    if timeout_s is None:
-        timeout_s = 120.0 + (1.5 * scenario.sim_time_s if time_mode == "realtime" else 0.0)
+    if timeout_s is None:  # an external plant may run in real time in either mode
+        paced = time_mode == "realtime" or plant == PLANT_EXTERNAL
+        timeout_s = 120.0 + (1.5 * scenario.sim_time_s if paced else 0.0)
     tmp = stage(out, ".tmp-run-")
     (tmp / "logs").mkdir()
     shutil.copyfile(scenario_path, tmp / "scenario.yaml")
@@ -184,6 +196,7 @@ def run_scenario(
     }
     try:
         ending = ",".join(status.value for status in PlannerStatus.ending())
+        wait_for_plant_s = float(plant_timeout_s) if plant == PLANT_EXTERNAL else 0.0
         own_args = {
             graph.RECORDER.role: [
                 "-p",
@@ -194,6 +207,8 @@ def run_scenario(
                 f"stop_delay_s:={float(settle_s)!r}",
                 "-p",
                 f"scenario_file:={tmp / 'scenario.yaml'}",
+                "-p",
+                f"plant_timeout_s:={wait_for_plant_s!r}",
             ],
             graph.SIMULATOR.role: [
                 "-p",
@@ -202,17 +217,26 @@ def run_scenario(
                 f"lockstep.expected_subscribers:={graph.state_listeners()}",
             ],
         }
-        for spec in graph.NODES:  # in start order
+        for spec in started:  # in start order
             scenario_args = params if spec.parameters.scenario is not None else []
             nodes.start(spec, scenario_args + own_args.get(spec.role, []) + extra[spec.role])
         log(f"attitude-run: {scenario.name}: nodes started ({time_mode}); logs in {out / 'logs'}")
+        if plant == PLANT_EXTERNAL:
+            log(
+                f"attitude-run: waiting up to {plant_timeout_s:g} s for an external plant on "
+                f"{ATTITUDE} (ROS_DOMAIN_ID={env.get('ROS_DOMAIN_ID', '0')}); start it with "
+                f"--params-file {Path(scenario_path).resolve()} -p time_mode:={time_mode} "
+                f"-p lockstep.expected_subscribers:={graph.state_listeners()}"
+            )
         while end_reason is None:
             time.sleep(0.02)
             exited = nodes.exited()
             if stop_requested:
                 end_reason = failure = "interrupted"
             elif exited.get(graph.RECORDER.role) == 0:
-                end_reason = "planner finished"
+                end_reason = "recording complete"  # planner finished or scenario time ended
+            elif exited.get(graph.RECORDER.role) == EXIT_NO_PLANT:
+                end_reason = failure = f"no plant published {ATTITUDE} within {plant_timeout_s:g} s"
             elif exited.get(graph.SIMULATOR.role) == 0:
                 end_reason = "scenario time ended"
             elif exited:
@@ -223,7 +247,7 @@ def run_scenario(
     finally:
         stop_t0 = time.monotonic()
         loop, observers = graph.STOP_ORDER
-        codes = nodes.stop([n.role for n in loop], NODE_GRACE_S)
+        codes = nodes.stop([n.role for n in loop if n in started], NODE_GRACE_S)
         codes.update(nodes.stop([n.role for n in observers], RECORDER_GRACE_S))
         shutdown_s = time.monotonic() - stop_t0
         for s, h in handlers.items():
@@ -243,10 +267,15 @@ def run_scenario(
         except (ValueError, OSError) as err:
             failure = failure or f"bag unusable: {err}"
         else:
+            if end_reason == "recording complete":
+                codes_seen = set(bag_run.run.planner_status.tolist())
+                ended = any(s.code in codes_seen for s in PlannerStatus.ending())
+                end_reason = "planner finished" if ended else "scenario time ended"
             summary = summarize_bag(bag_run)
             summary.update(
                 {
                     "time_mode": time_mode,
+                    "plant": plant,
                     "end_reason": end_reason,
                     "failure": failure,
                     "exit_codes": codes,
@@ -305,8 +334,24 @@ def main(argv=None) -> int:
         help="extra parameter for one node (recorder, planner, controller, "
         "simulator), e.g. simulator:lockstep.torque_timeout_s:=0.5",
     )
+    parser.add_argument(
+        "--plant",
+        choices=PLANTS,
+        default=PLANT_SIM,
+        help="sim (default): start rigid_body_sim; external: start no plant and wait for "
+        "one (a hardware-in-the-loop bridge) to publish the state (docs/hil_bridge.md)",
+    )
+    parser.add_argument(
+        "--plant-timeout-s",
+        type=float,
+        default=60.0,
+        help="with --plant external: fail when no state arrives within this wall time, s "
+        "(default 60)",
+    )
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
     args = parser.parse_args(argv)
+    if not 0.0 < args.plant_timeout_s <= 3600.0:
+        parser.error(f"--plant-timeout-s: must be in (0, 3600], got {args.plant_timeout_s!r}")
     node_params: dict[str, list[str]] = {}
     for item in args.param:
         node, _, assignment = item.partition(":")
@@ -315,6 +360,8 @@ def main(argv=None) -> int:
                 f"--param {item!r}: expected NODE:NAME:=VALUE with NODE one of {list(ROLES)}"
             )
         node_params.setdefault(node, []).append(assignment)
+    if args.plant == PLANT_EXTERNAL and graph.SIMULATOR.role in node_params:
+        parser.error("--param simulator:...: no simulator is started with --plant external")
     log: Callable[[str], None] = (
         (lambda *a: None) if args.quiet else (lambda msg: print(msg, flush=True))
     )
@@ -328,6 +375,8 @@ def main(argv=None) -> int:
             args.settle_s,
             log,
             node_params,
+            plant=args.plant,
+            plant_timeout_s=args.plant_timeout_s,
         )
     except ScenarioError as err:
         print(f"attitude-run: error: {err}", file=sys.stderr)

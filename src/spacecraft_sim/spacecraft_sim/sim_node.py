@@ -1,12 +1,12 @@
 """Rigid-body spacecraft simulator node (``ros2 run spacecraft_sim rigid_body_sim``).
 
 Wiring only: :class:`attitude_core.sim_stepper.SimStepper` decides (lockstep and real
-time, eqs. 3-4). Each step ``k`` publishes, with one stamp, ``/clock`` (``k dt``), the
-attitude (frame ``inertial``) and ``omega_BN`` (frame ``body``); it consumes
-``/controller/torque`` and publishes the torque applied over ``[t_k, t_k+1)`` on
-``/spacecraft/applied_torque``, stamped ``k``. Before the first step it waits for the
-graph of :func:`attitude_core.node_graph.readiness`. Exit code 0 at the end of the
-scenario time, 1 when the graph never connects.
+time, eqs. 3-4). Each step ``k`` publishes, with one stamp, the attitude (frame
+``inertial``), ``omega_BN`` (frame ``body``) and, in lockstep only, ``/clock`` (``k dt``);
+it takes ``/controller/torque`` and publishes the torque applied over ``[t_k, t_k+1)``
+on ``/spacecraft/applied_torque``, stamped ``k``. It waits for the graph of
+:func:`attitude_core.node_graph.readiness` first. Exit 0 at the scenario's end, 1 when
+the graph never connects.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ class RigidBodySimNode(Node):
         self.sub_torque = self.create_subscription(
             WrenchStamped, c.TORQUE, self.on_torque, c.qos(c.topic(c.TORQUE), subscriber=True)
         )
-        self.msg_clock, self.msg_att = ClockMsg(), QuaternionStamped()
+        self.msg_clock, self.msg_att, self.msg_clock_due = ClockMsg(), QuaternionStamped(), False
         self.msg_rate = Vector3Stamped()
         self.msg_att.header.frame_id = c.INERTIAL_FRAME
         self.msg_rate.header.frame_id = c.BODY_FRAME
@@ -99,9 +99,8 @@ class RigidBodySimNode(Node):
         self.do(self.stepper.on_timer(time.monotonic(), self.get_clock().now().nanoseconds))
 
     def on_torque(self, msg: WrenchStamped) -> None:
-        decision = self.stepper.on_torque(
-            time.monotonic(), cv.stamp_ns(msg.header.stamp), cv.vector3(msg.wrench.torque)
-        )
+        stamp, u = cv.stamp_ns(msg.header.stamp), cv.vector3(msg.wrench.torque)
+        decision = self.stepper.on_torque(time.monotonic(), stamp, u, msg.header.frame_id)
         if decision.action == Action.REJECT:
             cv.reject(self, c.TORQUE, decision.reason or "", count=self.stepper.rejected)
         self.do(decision)
@@ -114,13 +113,15 @@ class RigidBodySimNode(Node):
             cv.set_vector3(self.msg_applied.wrench.torque, d.applied)
             self.pub_applied.publish(self.msg_applied)
         if d.state is not None:
-            cv.set_stamp(self.msg_clock.clock, d.state.clock_ns)
+            self.msg_clock_due = d.state.clock_ns is not None  # lockstep only
+            cv.set_stamp(self.msg_clock.clock, d.state.clock_ns or 0)
             cv.set_stamp(self.msg_att.header.stamp, d.state.stamp_ns)
             cv.set_stamp(self.msg_rate.header.stamp, d.state.stamp_ns)
             cv.set_quaternion_from_mrp(self.msg_att.quaternion, d.state.sigma_bn)
             cv.set_vector3(self.msg_rate.vector, d.state.omega_b)
         if d.state is not None or d.resend:
-            self.pub_clock.publish(self.msg_clock)
+            if self.msg_clock_due:
+                self.pub_clock.publish(self.msg_clock)
             self.pub_att.publish(self.msg_att)
             self.pub_rate.publish(self.msg_rate)
         if d.action == Action.FINISH:
