@@ -151,7 +151,7 @@ class BagRecorderNode(Node):
                 status = PlannerDiagnostics.from_values(values).status
             except ValueError:  # another node's diagnostics
                 continue
-            if self.stop.on_status(status, stamp_ns):
+            if self.stop.on_status(status, stamp_ns) and self.stop.stop_at_ns is not None:
                 self.get_logger().info(
                     f"planner status {status.value!r} at {stamp_ns / 1e9:.3f} s: recording "
                     f"until {self.stop.stop_at_ns / 1e9:.3f} s"

@@ -67,10 +67,13 @@ class BridgeNode(Node):
         self.plant: Plant = ScipyRigidBody(p['inertia_kgm2'], q0, p['initial_rate_rad_s'])
         self.k, self.stamp_ns = 0, -1  # states published so far (lockstep: the step); stamp
         self.torque = np.zeros(3)  # lockstep: the last applied; real time: the latest
-        self.torque_stamp, self.torque_at = -1, None  # real time: its stamp and arrival
+        self.torque_stamp = -1  # real time: the stamp of the latest torque, and its arrival
+        self.torque_at: float | None = None
         self.held, self.rejected, self.stale = 0, 0, False  # timeouts in a row; bad torques
-        self.exit_code = None  # set: the main loop ends
-        self.created, self.ready_since = time.monotonic(), None
+        self.exit_code: int | None = None  # set: the main loop ends
+        self.created = time.monotonic()
+        self.ready_since: float | None = None  # since when the graph is connected
+        self.sent_at = self.first_sent_at = 0.0  # wall time of the state's last, first send
         pub = lambda kind, name: self.create_publisher(kind, name, PUB_QOS)
         self.pub_att = pub(QuaternionStamped, '/spacecraft/attitude')
         self.pub_rate = pub(Vector3Stamped, '/spacecraft/angular_velocity')

@@ -1,0 +1,127 @@
+"""What a check records and reports, as plain data (no ROS): the checker's input and output.
+
+A message is a :class:`Sample` ``(stamp_ns, frame, values, wall_s)``: the header stamp in
+integer nanoseconds, the ``frame_id``, the numbers (quaternion ``(x, y, z, w)``, vector,
+torque) and the tool's monotonic receipt (or send) time.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from attitude_core.node_parameters import LOCKSTEP, SIMULATOR
+from attitude_core.scenario import Scenario
+
+PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
+POINTS = (
+    "qos",
+    "stamps",
+    "clock",
+    "frames",
+    "quaternion",
+    "torque_step",
+    "applied_torque",
+    "resend",
+    "stale",
+    "sigint",
+)
+
+
+class Sample(NamedTuple):
+    """One message: stamp (ns), frame_id, values, tool's monotonic time (s)."""
+
+    stamp_ns: int
+    frame: str
+    values: tuple[float, ...]
+    wall_s: float = 0.0
+
+
+class Window(NamedTuple):
+    """A stretch where the tool withheld the torque of the state stamped ``stamp_ns``."""
+
+    kind: str  # "resend" or "stale"
+    stamp_ns: int
+    start_s: float
+    end_s: float
+
+
+def _default(key: str) -> float:
+    return next(row.default for row in SIMULATOR.own if row.key == key)
+
+
+@dataclass(frozen=True)
+class BridgeLimits:
+    """The bridge's timing parameters the checks assume (the simulator's defaults)."""
+
+    resend_period_s: float = _default("lockstep.resend_period_s")
+    torque_timeout_s: float = _default("lockstep.torque_timeout_s")
+    max_held_steps: int = int(_default("lockstep.max_held_steps"))
+    torque_stale_s: float = _default("realtime.torque_stale_s")
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The scenario's numbers the checks use, the time mode and the bridge's limits."""
+
+    mode: str
+    dt_s: float
+    inertia: np.ndarray
+    initial_mrp: np.ndarray
+    initial_rate: np.ndarray
+    limits: BridgeLimits = BridgeLimits()
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, mode: str = LOCKSTEP) -> Setup:
+        return cls(
+            mode,
+            scenario.dt_s,
+            np.asarray(scenario.inertia_kgm2, dtype=float).reshape(3, 3),
+            np.asarray(scenario.initial_mrp, dtype=float),
+            np.asarray(scenario.initial_rate_rad_s, dtype=float),
+        )
+
+    @property
+    def dt_ns(self) -> int:
+        return int(round(self.dt_s * 1e9))
+
+    @property
+    def lockstep(self) -> bool:
+        return self.mode == LOCKSTEP
+
+
+@dataclass
+class Recording:
+    """Everything seen and sent during one check."""
+
+    setup: Setup
+    attitude: list[Sample] = field(default_factory=list)
+    rate: list[Sample] = field(default_factory=list)
+    applied: list[Sample] = field(default_factory=list)
+    clock: list[Sample] = field(default_factory=list)  # stamp_ns: the /clock time
+    torques: list[Sample] = field(default_factory=list)  # sent by the tool
+    windows: list[Window] = field(default_factory=list)
+    aborted: str | None = None  # why the script stopped early
+
+
+class Result(NamedTuple):
+    """The verdict on one contract point."""
+
+    point: str
+    status: str  # PASS, FAIL or SKIP
+    detail: str
+
+    def line(self) -> str:
+        return f"{self.status} {self.point}: {self.detail}"
+
+
+def summary(results: list[Result], what: str) -> str:
+    """The last line of the report."""
+    failed = [r.point for r in results if r.status == FAIL]
+    counts = {s: sum(r.status == s for r in results) for s in (PASS, FAIL, SKIP)}
+    text = f"{counts[PASS]} passed, {counts[FAIL]} failed, {counts[SKIP]} skipped ({what})"
+    if failed:
+        return f"SUMMARY FAIL: {text}; failed: {', '.join(failed)}"
+    return f"SUMMARY PASS: {text}"
