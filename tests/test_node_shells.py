@@ -896,3 +896,88 @@ def test_simulator_realtime_refuses_torques_from_the_past_and_non_finite(ros, sc
     s.torque(now + DT_NS, (math.nan, 0.0, 0.0))  # not finite
     ros.spin_until(lambda: s.node.rejected == 2, "two rejections")
     np.testing.assert_array_equal(s.node.stepper.torque, u)  # still the good one
+
+
+def test_controller_rejects_inputs_in_another_frame(ros, scenario):
+    """Each input's frame_id is the contract's (attitude ``inertial``, rate ``body``,
+    targets ``inertial`` and ``target``): any other is rejected, counted, never torque."""
+    ros.init(CASE1)
+    p = ControllerProbe(ros, scenario)
+    rng = np.random.default_rng(11)
+    ns = DT_NS
+    inputs = random_inputs(rng)
+    for slot in range(4):
+        wrong = p.message(slot, ns, inputs[slot])
+        wrong.header.frame_id = "base_link"
+        n = p.node.rejected
+        p.pubs[slot].publish(wrong)
+        ros.spin_until(lambda n=n: p.node.rejected == n + 1, f"rejection of input {slot}")
+    assert p.filled(ns) == 0  # nothing of the stamp was taken
+    for slot in range(3):
+        p.feed(slot, ns, inputs[slot])
+    check_torque(p.feed_last(3, ns, inputs[3]), ns, p.expected(inputs))
+    assert p.node.rejected == 4 and len(p.torque) == 1
+
+
+def test_planner_rejects_an_attitude_in_another_frame(ros, scenario):
+    ros.init(CASE1)
+    p = PlannerProbe(ros)
+    quat = quat_from_mrp(scenario.initial_mrp)
+    for frame in ("body", "", "map"):
+        msg = attitude_msg(0, quat)
+        msg.header.frame_id = frame
+        n = p.node.rejected
+        p.pub.publish(msg)
+        ros.spin_until(lambda n=n: p.node.rejected == n + 1, f"rejection of frame {frame!r}")
+    assert p.answers() == 0 and p.node.planner is None  # not even started from it
+    p.send_and_wait(0, quat)
+    assert p.node.rejected == 3
+
+
+def test_best_effort_state_publisher_connects_through_qos_overrides(ros, scenario):
+    """A sensor-data (best-effort) driver: refused by the default reliable subscription,
+    connected with ROS 2's standard ``qos_overrides`` parameter."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    override = "qos_overrides./spacecraft/attitude.subscription.reliability"
+    ros.init(CASE1, **{override.replace(".", "__"): "best_effort"})
+    planner = ros.add(FepfPlannerNode())
+    driver = ros.probe.create_publisher(
+        QuaternionStamped,
+        c.ATTITUDE,
+        QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+    )
+    ros.spin_until(lambda: driver.get_subscription_count() >= 1, "the best-effort match")
+    answers = ros.subscribe(c.TARGET_MRP)
+    ros.spin_until(lambda: planner.pub_mrp.get_subscription_count() >= 1, "the answer's match")
+    quat = quat_from_mrp(scenario.initial_mrp)
+    ns = 0
+
+    def answered() -> bool:  # best effort may drop a sample: publish until one is answered
+        nonlocal ns
+        if not answers:
+            driver.publish(attitude_msg(ns, quat))
+            ns += DT_NS
+        return bool(answers)
+
+    ros.spin_until(answered, "the planner's answer to a best-effort state")
+    assert planner.get_parameter(override).value == "best_effort"
+
+
+def test_best_effort_state_publisher_does_not_connect_by_default(ros):
+    """Without the override the state subscription stays reliable: lossless lockstep with
+    the project's simulator; a best-effort publisher is incompatible and never matches."""
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    ros.init(CASE1)
+    planner = ros.add(FepfPlannerNode())
+    reliable = ros.publisher(c.ATTITUDE)  # a contract publisher matches: discovery works
+    driver = ros.probe.create_publisher(
+        QuaternionStamped,
+        c.ATTITUDE,
+        QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
+    )
+    ros.spin_until(lambda: reliable.get_subscription_count() >= 1, "the reliable match")
+    ros.spin_for(QUIET_S)
+    assert driver.get_subscription_count() == 0
+    assert planner.count_publishers(c.ATTITUDE) == 2  # both are seen, only one matches
