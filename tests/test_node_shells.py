@@ -271,7 +271,9 @@ def test_scenario_parameters_declared_and_loaded(ros, scenario, which):
     else:  # the controller and the simulator do not carry the planner's keys
         assert not node.has_parameter("planner.gamma_deg")
     # Read-only for real: a set request is refused and the value is unchanged.
-    key, value = declared[-1].key, node.get_parameter(declared[-1].key).value
+    key = "scenario_name"  # declared by every node that reads the scenario
+    assert key in {r.key for r in declared}
+    value = node.get_parameter(key).value
     result = node.set_parameters([Parameter(key, value=value)])[0]
     assert not result.successful
 
@@ -981,3 +983,36 @@ def test_best_effort_state_publisher_does_not_connect_by_default(ros):
     ros.spin_for(QUIET_S)
     assert driver.get_subscription_count() == 0
     assert planner.count_publishers(c.ATTITUDE) == 2  # both are seen, only one matches
+
+
+def test_controller_scales_its_command_into_the_actuator_bound(ros, scenario, tmp_path):
+    """With ``actuators.max_torque_nm`` the torque is the eq. 11 torque scaled into the
+    per-axis bound, its direction kept."""
+    from attitude_core.actuators import scale_to_bound
+
+    bound = (0.03, 0.02, 0.05)
+    path = tmp_path / "limited.yaml"
+    path.write_text(
+        CASE1.read_text().replace(
+            "    controller:\n",
+            f"    actuators:\n      max_torque_nm: {list(bound)}\n    controller:\n",
+        )
+    )
+    ros.init(path)
+    p = ControllerProbe(ros, scenario)
+    assert p.node.has_parameter("actuators.max_torque_nm")
+    assert not p.node.has_parameter("actuators.max_rate_rad_s")  # the planner's, not its
+    rng = np.random.default_rng(5)
+    saturated = 0
+    for k in range(1, 9):
+        ns = k * DT_NS
+        inputs = random_inputs(rng)
+        inputs[1] = inputs[1] * 20.0  # fast body rates: large torques
+        for slot in range(3):
+            p.feed(slot, ns, inputs[slot])
+        msg = p.feed_last(3, ns, inputs[3])
+        want, hit = scale_to_bound(p.expected(inputs), bound)
+        saturated += hit
+        check_torque(msg, ns, want)
+        assert np.all(np.abs(xyz(msg.wrench.torque)) <= np.array(bound) * (1 + 1e-12))
+    assert saturated >= 4

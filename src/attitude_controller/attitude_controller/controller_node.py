@@ -23,7 +23,7 @@ from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
 from rclpy.node import Node
 
 from attitude_core import node_graph
-from attitude_core.control import PdGains, pd_torque
+from attitude_core.control import PdGains, commanded_torque
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     bad_frame,
@@ -113,7 +113,8 @@ class PdControllerNode(Node):
 
     def answer(self, stamp: int, stamp_msg, inputs) -> None:
         sigma_bn, omega_b, sigma_t, omega_t = inputs
-        u = pd_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t)
+        limit = self.scenario.actuators.max_torque_nm
+        u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
         out = WrenchStamped()
         out.header.stamp = stamp_msg
         out.header.frame_id = c.BODY_FRAME

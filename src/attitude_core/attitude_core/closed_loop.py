@@ -3,7 +3,9 @@
 The loop at step ``k`` (``t_k = k dt``): the planner gives the target
 ``(sigma_t, omega_t)`` for ``t_k`` (eqs. 6-10, 12), the controller the torque ``u_k``
 from the body state at ``t_k`` (eq. 11), and the body is propagated to ``t_{k+1}`` with
-``u_k`` held (eqs. 3-4). The nodes run the same three functions, one per process.
+``u_k`` held (eqs. 3-4). With ``actuators.max_torque_nm`` the controller scales its
+command into the bound and the plant clips per axis (:mod:`attitude_core.actuators`).
+The nodes run the same functions, one per process.
 """
 
 from __future__ import annotations
@@ -12,7 +14,8 @@ import time
 
 import numpy as np
 
-from .control import PdGains, pd_torque
+from .actuators import clip_to_bound
+from .control import PdGains, commanded_torque
 from .dynamics import RigidBody
 from .fepf import FepfPlanner
 from .scenario import Scenario
@@ -28,6 +31,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     dt = scenario.dt_s
     planner = FepfPlanner.from_scenario(scenario)
     gains = PdGains(scenario.kp, scenario.kd)
+    limit = scenario.actuators.max_torque_nm
     body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
     sigma = np.empty((n + 1, 3))
     omega = np.empty((n + 1, 3))
@@ -42,7 +46,10 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         c0 = clock()
         target = planner.step()
         step_s[k] = clock() - c0
-        u = pd_torque(gains, body.sigma_bn, body.omega_b, target.sigma_t, target.omega_t)
+        u = commanded_torque(
+            gains, body.sigma_bn, body.omega_b, target.sigma_t, target.omega_t, limit
+        )
+        u, _ = clip_to_bound(u, limit)  # the plant's own bound (a no-op after the scaling)
         sigma[k], omega[k], torque[k] = body.sigma_bn, body.omega_b, u
         sigma_t[k], omega_t[k] = target.sigma_t, target.omega_t
         d_obs[k] = target.obstacle_distance_mrp

@@ -3,7 +3,8 @@
 ``u = -Kp sigma_e - Kd omega_e`` with ``sigma_e = sigma_B/R`` (the MRP of the body
 relative to the target frame R, short way, ``|sigma_e| <= 1``) and
 ``omega_e = omega_B - C_BR omega_R`` (target rate mapped into body axes).
-Gains default to ``Kp = 5.5 J``, ``Kd = 3.1 J`` (paper Table 1).
+Gains default to ``Kp = 5.5 J``, ``Kd = 3.1 J`` (paper Table 1). With an actuator
+bound the command is scaled into it, direction kept (:func:`commanded_torque`).
 """
 
 from __future__ import annotations
@@ -11,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from .actuators import scale_to_bound
 from .mrp import dcm_from_mrp_single, relative
 
-__all__ = ["PdGains", "pd_torque", "tracking_errors"]
+__all__ = ["PdGains", "pd_torque", "commanded_torque", "tracking_errors"]
 
 
 class PdGains:
@@ -54,3 +56,17 @@ def pd_torque(
     """Control torque ``u`` in body axes, N m (eq. 11)."""
     sigma_e, omega_e = tracking_errors(sigma_bn, omega_b, sigma_rn, omega_r)
     return -(gains.kp @ sigma_e) - gains.kd @ omega_e
+
+
+def commanded_torque(
+    gains: PdGains,
+    sigma_bn: npt.ArrayLike,
+    omega_b: npt.ArrayLike,
+    sigma_rn: npt.ArrayLike,
+    omega_r: npt.ArrayLike,
+    max_torque_nm: tuple[float, float, float] | None = None,
+) -> npt.NDArray[np.float64]:
+    """The controller's command: eq. 11, scaled into ``max_torque_nm`` (per body axis,
+    N m; None: unlimited) with its direction kept (``actuators.scale_to_bound``)."""
+    u, _ = scale_to_bound(pd_torque(gains, sigma_bn, omega_b, sigma_rn, omega_r), max_torque_nm)
+    return u

@@ -69,7 +69,7 @@ CONTROLLER = NodeParameters(
         ),
         Param("fault.seed", "int", "test mode: seed of the drops", 0),
     ),
-    scenario=("scenario_name", "inertia_kgm2", "controller.*"),
+    scenario=("scenario_name", "inertia_kgm2", "controller.*", "actuators.max_torque_nm"),
 )
 
 SIMULATOR = NodeParameters(
@@ -132,6 +132,7 @@ SIMULATOR = NodeParameters(
         "inertia_kgm2",
         "initial_mrp",
         "initial_rate_rad_s",
+        "actuators.max_torque_nm",
     ),
 )
 

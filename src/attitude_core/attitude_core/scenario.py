@@ -65,6 +65,7 @@ __all__ = [
     "ScenarioError",
     "PlannerConfig",
     "ArrivalConfig",
+    "ActuatorLimits",
     "Scenario",
     "load_scenario",
     "loads_scenario",
@@ -101,6 +102,18 @@ class PlannerConfig:
 
 
 @dataclass(frozen=True)
+class ActuatorLimits:
+    """Actuator bounds; None is unlimited (the paper's case)."""
+
+    max_torque_nm: tuple[float, float, float] | None = None  # per body axis, N m
+    max_rate_rad_s: float | None = None  # body rate, rad/s
+
+    @property
+    def limited(self) -> bool:
+        return self.max_torque_nm is not None or self.max_rate_rad_s is not None
+
+
+@dataclass(frozen=True)
 class ArrivalConfig:
     attitude_tol_deg: float
     rate_tol_rad_s: float
@@ -125,6 +138,7 @@ class Scenario:
     kd_over_j: float
     planner: PlannerConfig
     arrival: ArrivalConfig
+    actuators: ActuatorLimits = ActuatorLimits()
 
     @property
     def n_steps(self) -> int:
@@ -291,6 +305,9 @@ def parse_scenario(
         kd_over_j=values["controller.kd_over_j"],
         planner=planner,
         arrival=ArrivalConfig(values["arrival.attitude_tol_deg"], values["arrival.rate_tol_rad_s"]),
+        actuators=ActuatorLimits(
+            _torque_bound(values["actuators.max_torque_nm"]), values["actuators.max_rate_rad_s"]
+        ),
     )
 
     # 4. Start and goal must satisfy the keep-out constraints (eq. 5).
@@ -363,6 +380,10 @@ def loads_scenario(text: str, source: str = "<text>") -> Scenario:
             "{'ros__parameters': {...}}} (a ROS 2 parameters file for all nodes)",
         )
     return parse_scenario(doc["/**"]["ros__parameters"], source)
+
+
+def _torque_bound(v: Any) -> tuple[float, float, float] | None:
+    return None if v is None else (float(v[0]), float(v[1]), float(v[2]))
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

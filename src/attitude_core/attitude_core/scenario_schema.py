@@ -44,6 +44,12 @@ def _rigid_body(j: Any) -> str | None:
     return None
 
 
+def _positive_vector(v: Any) -> str | None:
+    if not all(float(x) > 0.0 for x in v):
+        return f"every element must be > 0, got {[float(x) for x in v]}"
+    return None
+
+
 SCENARIO_PARAMETERS = (
     Param("scenario_name", "name", "name used in outputs ([A-Za-z][A-Za-z0-9_]*)"),
     Param("sim_time_s", "float", "simulated time, s (>= dt_s)", bounds=gt(0.0)),
@@ -170,6 +176,20 @@ SCENARIO_PARAMETERS = (
         "rim samples per keep-out cone",
         ByVariant(180, 180),
         Bounds(16, 100_000),
+    ),
+    Param(
+        "actuators.max_torque_nm",
+        "vec3",
+        "per-body-axis torque bound of the actuators, N m (each > 0; absent: unlimited)",
+        None,
+        check=_positive_vector,
+    ),
+    Param(
+        "actuators.max_rate_rad_s",
+        "float",
+        "body-rate bound the guidance must respect, rad/s (absent: unlimited)",
+        None,
+        gt(0.0),
     ),
     Param("arrival.attitude_tol_deg", "float", "arrival: attitude error bound, deg", 0.5, gt(0.0)),
     Param("arrival.rate_tol_rad_s", "float", "arrival: body rate bound, rad/s", 1.0e-3, gt(0.0)),

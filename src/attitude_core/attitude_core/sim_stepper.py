@@ -18,8 +18,9 @@ node must do; the node only converts messages and publishes what it is told.
   since it arrived) is stale: zero torque. A torque stamped before the one applied is
   refused.
 
-Non-finite torques are refused in both modes. The run ends (exit code 0) after
-``n_steps`` steps.
+Non-finite torques are refused in both modes. With ``actuators.max_torque_nm`` the body
+gets the torque clipped per axis, as a real plant's wheels saturate, and the applied
+torque reports what it got. The run ends (exit code 0) after ``n_steps`` steps.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from .actuators import clip_to_bound
 from .dynamics import RigidBody
 from .node_parameters import LOCKSTEP, TIME_MODES
 from .scenario import Scenario
@@ -75,15 +77,23 @@ class StepperConfig:
     max_held_steps: int = 1
     torque_stale_s: float = 0.5
     startup_timeout_s: float = 60.0
+    max_torque_nm: tuple[float, float, float] | None = None  # the plant's bound, per axis
 
     def __post_init__(self) -> None:
         if self.time_mode not in TIME_MODES:
             raise ValueError(f"time_mode must be one of {list(TIME_MODES)}, got {self.time_mode!r}")
 
     @classmethod
-    def from_parameters(cls, values: dict[str, Any], dt_s: float, n_steps: int) -> StepperConfig:
+    def from_parameters(
+        cls,
+        values: dict[str, Any],
+        dt_s: float,
+        n_steps: int,
+        max_torque_nm: tuple[float, float, float] | None = None,
+    ) -> StepperConfig:
         """From the simulator node's parameter values (dotted keys)."""
         return cls(
+            max_torque_nm=max_torque_nm,
             dt_s=dt_s,
             n_steps=n_steps,
             time_mode=values["time_mode"],
@@ -137,6 +147,7 @@ class SimStepper:
         self.state_stamp: int | None = None  # stamp of the state last published
         self.sent_at = self.first_sent_at = 0.0
         self.resends = self.timeouts = self.rejected = 0
+        self.saturated_steps = 0  # steps whose torque the plant's bound clipped
         self.held_steps = 0  # lockstep: consecutive timed-out steps
         self.torque_stamp = -1  # real time: stamp of the applied torque
         self.torque_received_at: float | None = None
@@ -152,7 +163,9 @@ class SimStepper:
         cls, scenario: Scenario, parameters: dict[str, Any], created: float
     ) -> SimStepper:
         """The stepper of a scenario's body, with the simulator node's parameter values."""
-        config = StepperConfig.from_parameters(parameters, scenario.dt_s, scenario.n_steps)
+        config = StepperConfig.from_parameters(
+            parameters, scenario.dt_s, scenario.n_steps, scenario.actuators.max_torque_nm
+        )
         body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
         return cls(config, body, created)
 
@@ -258,12 +271,12 @@ class SimStepper:
         """The torque for step k is known: integrate to k + 1 and publish that state."""
         self.torque = torque
         self.waiting_stamp = None
-        applied, applied_stamp = np.array(torque, dtype=float), self.state_stamp
+        applied, applied_stamp = self._bounded(torque), self.state_stamp
         if self.k >= self.cfg.n_steps:
             decision = self._end(now, applied)
             decision.applied_stamp_ns = applied_stamp
             return decision
-        self.body.step(torque, self.cfg.dt_s)
+        self.body.step(applied, self.cfg.dt_s)
         self.k += 1
         return Decision(
             action,
@@ -290,8 +303,8 @@ class SimStepper:
             action = Action.ZERO
         applied, applied_stamp = None, None
         if self.k > 0:
-            applied, applied_stamp = np.array(self.torque, dtype=float), self.state_stamp
-            self.body.step(self.torque, self.cfg.dt_s)
+            applied, applied_stamp = self._bounded(self.torque), self.state_stamp
+            self.body.step(applied, self.cfg.dt_s)
         state = self._state(now, clock_ns)
         self.k += 1
         return Decision(
@@ -309,6 +322,13 @@ class SimStepper:
         return StateOut(
             self.k, stamp_ns, clock_ns, self.body.sigma_bn.copy(), self.body.omega_b.copy()
         )
+
+    def _bounded(self, torque: Vector) -> Vector:
+        """The torque the body gets: clipped per axis to the plant's bound, as independent
+        wheels saturate (:func:`attitude_core.actuators.clip_to_bound`)."""
+        applied, saturated = clip_to_bound(torque, self.cfg.max_torque_nm)
+        self.saturated_steps += int(saturated)
+        return np.array(applied, dtype=float)
 
     def _reject(self, reason: str) -> Decision:
         self.rejected += 1

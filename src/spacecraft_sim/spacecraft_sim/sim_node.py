@@ -135,8 +135,8 @@ class RigidBodySimNode(Node):
     def close(self) -> None:
         s = self.stepper
         self.get_logger().info(
-            f"stopped at step {s.k}: {s.resends} state re-sends, {s.timeouts} torque "
-            f"timeouts, {s.rejected} rejected torques"
+            f"stopped at step {s.k}: {s.resends} state re-sends, {s.timeouts} torque timeouts, "
+            f"{s.rejected} rejected torques, {s.saturated_steps} saturated torques"
         )
 
 
