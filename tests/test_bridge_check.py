@@ -260,12 +260,16 @@ def test_qos_verdicts():
     verdict = procs.check_qos(incompatible)
     assert verdict.status == "FAIL" and "incompatible QoS (RELIABILITY)" in verdict.detail
     assert "sim BEST_EFFORT/VOLATILE" in verdict.detail
+    # A best-effort state driver can still be connected: the verdict says how.
+    hint = "qos_overrides./spacecraft/attitude.subscription.reliability:=best_effort"
+    assert hint in verdict.detail
     missing = procs.check_qos([topic("/spacecraft/attitude", "publisher", True)], "7")
     assert missing.detail == (
         "/spacecraft/attitude: no publisher matched on ROS_DOMAIN_ID 7 (no publisher in the graph)"
     )
     lossy = [topic("/controller/torque", "subscription", True, 1, [], [("b", "BEST_EFFORT", "V")])]
     assert "the contract is reliable" in procs.check_qos(lossy).detail
+    assert "qos_overrides" not in procs.check_qos(lossy).detail  # not a state topic
 
 
 def test_sigint_verdicts_and_summary():

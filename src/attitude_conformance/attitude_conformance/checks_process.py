@@ -4,7 +4,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from attitude_core.topics import ANGULAR_VELOCITY, ATTITUDE
+
 from .record import FAIL, PASS, SKIP, Result
+
+STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)
 
 SIGINT_GRACE_S = 5.0
 
@@ -39,7 +43,7 @@ def check_qos(topics: list[TopicQos], domain: str = "") -> Result:
                 FAIL,
                 f"{t.topic}: a {t.bridge_role} with incompatible QoS "
                 f"({', '.join(sorted(set(t.incompatible)))}): {_endpoints(t)}; the contract "
-                "is reliable, volatile (attitude_ros.contract.qos)",
+                f"is reliable, volatile (attitude_ros.contract.qos){_override_hint(t.topic)}",
             )
     for t in topics:
         if t.required and t.matched == 0:
@@ -52,10 +56,22 @@ def check_qos(topics: list[TopicQos], domain: str = "") -> Result:
             return Result(
                 "qos",
                 FAIL,
-                f"{t.topic}: {t.bridge_role} {_endpoints(t)}; the contract is reliable",
+                f"{t.topic}: {t.bridge_role} {_endpoints(t)}; the contract is reliable"
+                f"{_override_hint(t.topic)}",
             )
     names = ", ".join(t.topic for t in topics if t.matched)
     return Result("qos", PASS, f"reliable, volatile endpoints matched on {names}")
+
+
+def _override_hint(topic: str) -> str:
+    """For a best-effort state publisher: how the stack connects it anyway."""
+    if topic not in STATE_TOPICS:
+        return ""
+    return (
+        f" (a best-effort driver is connected by setting "
+        f"qos_overrides.{topic}.subscription.reliability:=best_effort on the planner, the "
+        "controller and the recorder; docs/hil_bridge.md, section 5)"
+    )
 
 
 def check_sigint(
