@@ -33,12 +33,12 @@ from rclpy.serialization import deserialize_message
 from attitude_core import node_graph
 from attitude_core.diagnostics import PlannerDiagnostics
 from attitude_core.parameters import NodeParameterError
-from attitude_core.recording import Outcome, StopRule
+from attitude_core.recording import EXIT_NO_PLANT, Outcome, StopRule
 from attitude_core.scenario import is_ros_builtin, loads_scenario, scenario_yaml
 from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
-from attitude_ros.params import declare_node_parameters, plain_value
-from attitude_ros.runner import EXIT_NO_PLANT, run
+from attitude_ros.params import declare_node_parameters, undeclared_parameters
+from attitude_ros.runner import run
 from attitude_tools.bag import BagWriter, qos_profile_yaml
 
 
@@ -57,7 +57,7 @@ class BagRecorderNode(Node):
         self.output_dir = own["output_dir"]
         if not self.output_dir:
             raise NodeParameterError(source, "output_dir", "missing required parameter")
-        scenario_text = self.scenario_text(own["scenario_file"], source)
+        scenario_text = self.scenario_text(own["scenario_file"])
         scenario = loads_scenario(scenario_text, source) if scenario_text else None
         self.stop = StopRule(
             {PlannerStatus.parse(s) for s in own["stop_on_planner_status"] if s},
@@ -100,19 +100,14 @@ class BagRecorderNode(Node):
             + ("" if scenario is None else f"; scenario '{scenario.name}' attached")
         )
 
-    def scenario_text(self, scenario_file: str, source: str) -> str | None:
+    def scenario_text(self, scenario_file: str) -> str | None:
         """The scenario to attach: ``scenario_file``, else the scenario parameters given
         to this node (the nodes' ``--params-file``), else None."""
         if scenario_file:
             with open(scenario_file, encoding="utf-8") as f:
                 return f.read()
-        own = {row.key for row in node_graph.RECORDER.parameters.own}
-        overrides = getattr(self, "_parameter_overrides", {})  # rclpy: no public getter
-        flat = {
-            key: plain_value(parameter.value)
-            for key, parameter in overrides.items()
-            if key not in own and not is_ros_builtin(key)
-        }
+        given = undeclared_parameters(self)  # its own rows are declared
+        flat = {key: value for key, value in given.items() if not is_ros_builtin(key)}
         return scenario_yaml(flat) if flat else None
 
     def callback(self, topic):

@@ -4,11 +4,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from attitude_core.topics import ANGULAR_VELOCITY, ATTITUDE
+from attitude_core.topics import STATE_TOPICS
 
 from .record import FAIL, PASS, SKIP, Result
-
-STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)
 
 SIGINT_GRACE_S = 5.0
 

@@ -17,11 +17,12 @@ import enum
 from collections.abc import Iterable
 
 from .status import PlannerStatus
-from .topics import ATTITUDE
+from .topics import ATTITUDE, NS_PER_S
 
-__all__ = ["Outcome", "StopRule"]
+__all__ = ["Outcome", "StopRule", "EXIT_NO_PLANT"]
 
-NS_PER_S = 1_000_000_000
+EXIT_NO_PLANT = 3
+"""The recorder's exit code for :attr:`Outcome.NO_PLANT` (``attitude-run`` reads it)."""
 
 
 class Outcome(enum.Enum):

@@ -128,10 +128,14 @@ class Decision:
     applied: Vector | None = None
     applied_stamp_ns: int | None = None
     state: StateOut | None = None
-    resend: bool = False
     exit_code: int | None = None
     reason: str | None = None
     logs: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def resend(self) -> bool:
+        """Publish the current state again (lockstep, its torque still missing)."""
+        return self.action is Action.RESEND
 
 
 class SimStepper:
@@ -264,7 +268,7 @@ class SimStepper:
         if now - self.sent_at > self.cfg.resend_period_s:
             self.resends += 1
             self.sent_at = now
-            return Decision(Action.RESEND, resend=True)
+            return Decision(Action.RESEND)
         return Decision(Action.NONE)
 
     def _advance(self, now: float, torque: Vector, action: Action) -> Decision:

@@ -43,6 +43,8 @@ TARGET_FRAME = "target"  # R: the planner's target attitude
 # Depth of the nodes' subscription queues (keep-last).
 HISTORY_DEPTH = 200
 
+STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)  # what a plant (simulator or bridge) publishes
+
 
 NS_PER_S = 1_000_000_000
 

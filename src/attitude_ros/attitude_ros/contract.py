@@ -6,13 +6,18 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from attitude_core.topics import *  # noqa: F403 - the contract's names, re-exported
-from attitude_core.topics import CLOCK, HISTORY_DEPTH, TOPICS, Topic, topic  # noqa: F401
+from attitude_core.topics import (  # noqa: F401
+    CLOCK,
+    HISTORY_DEPTH,
+    STATE_TOPICS,
+    TOPICS,
+    Topic,
+    topic,
+)
 
 if TYPE_CHECKING:
     from rclpy.qos import QoSProfile
     from rclpy.qos_overriding_options import QoSOverridingOptions
-
-STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)  # noqa: F405 - from the contract's names
 
 
 def qos(entry: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:

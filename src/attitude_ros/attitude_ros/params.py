@@ -35,7 +35,13 @@ from attitude_core.scenario import (
 )
 from attitude_core.scenario_schema import GROUPS
 
-__all__ = ["descriptor", "declare_node_parameters", "declare_scenario_node", "plain_value"]
+__all__ = [
+    "descriptor",
+    "declare_node_parameters",
+    "declare_scenario_node",
+    "plain_value",
+    "undeclared_parameters",
+]
 
 _TYPES = {
     "double": (Parameter.Type.DOUBLE, ParameterType.PARAMETER_DOUBLE),
@@ -109,9 +115,8 @@ def declare_node_parameters(
         if value is not None:
             given[row.key] = value
     own = values_from(table.own, given, source)  # rclpy checked type and range; rows the rest
-    overrides = getattr(node, "_parameter_overrides", {})  # rclpy keeps no public getter
     if table.scenario is None:
-        _refuse_unknown(node, overrides, table, source)
+        _refuse_unknown(undeclared_parameters(node), table, source)
         return own, None
 
     flat: dict[str, Any] = {}
@@ -127,10 +132,10 @@ def declare_node_parameters(
         if table.reads_scenario_key(row.key):
             declare_scenario_row(row)
 
+    given_names = undeclared_parameters(node)  # the name lists this node does not read
+
     def listed(group: str) -> tuple[str, ...]:
-        names = flat.get(f"{group}.names")
-        if names is None and f"{group}.names" in overrides:
-            names = plain_value(overrides[f"{group}.names"].value)
+        names = flat.get(f"{group}.names", given_names.get(f"{group}.names"))
         # Each distinct name once: a duplicate is the loader's to report, on the list.
         return tuple(dict.fromkeys(n for n in (names or ()) if isinstance(n, str)))
 
@@ -138,13 +143,22 @@ def declare_node_parameters(
         if row not in names_rows and table.reads_scenario_key(row.key):
             declare_scenario_row(row)
     # Every other parameter given to this node: scenario keys it does not read, and typos.
-    for name, parameter in overrides.items():
-        if not node.has_parameter(name):
-            flat[name] = plain_value(parameter.value)
+    flat.update(undeclared_parameters(node))
     scenario = parse_scenario(
         flat, source, base_dir=os.getcwd(), also_known=tuple(r.key for r in table.own)
     )
     return own, scenario
+
+
+def undeclared_parameters(node: Node) -> dict[str, Any]:
+    """The parameters given to ``node`` (file or ``-p``) that it has not declared, as the
+    YAML loader would give their values."""
+    overrides = getattr(node, "_parameter_overrides", {})  # rclpy keeps no public getter
+    return {
+        name: plain_value(parameter.value)
+        for name, parameter in overrides.items()
+        if not node.has_parameter(name)
+    }
 
 
 def declare_scenario_node(node: Node, table: NodeParameters) -> tuple[dict[str, Any], Scenario]:
@@ -155,16 +169,14 @@ def declare_scenario_node(node: Node, table: NodeParameters) -> tuple[dict[str, 
     return own, scenario
 
 
-def _refuse_unknown(
-    node: Node, overrides: dict[str, Any], table: NodeParameters, source: str
-) -> None:
+def _refuse_unknown(undeclared: dict[str, Any], table: NodeParameters, source: str) -> None:
     """A node that takes no scenario refuses a parameter that is neither its own, nor a
     scenario key (a shared ``/**`` parameters file may be given to it), nor one rclpy
     declares by itself: a typo must not be ignored."""
     own = [row.key for row in table.own]
     scenario = {row.key for row in scenario_keys()}
-    for name in overrides:
-        if node.has_parameter(name) or name in scenario or is_ros_builtin(name):
+    for name in undeclared:
+        if name in scenario or is_ros_builtin(name):
             continue
         if name.split(".", 1)[0] in GROUPS:
             continue

@@ -26,7 +26,6 @@ from attitude_core.parameters import ParameterError
 from attitude_core.scenario import ScenarioError
 
 EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
-EXIT_NO_PLANT = 3  # the recorder saw no state within its plant_timeout_s
 
 
 def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:

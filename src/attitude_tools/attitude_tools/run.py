@@ -30,6 +30,7 @@ from pathlib import Path
 
 from attitude_core import node_graph as graph
 from attitude_core.node_graph import NodeSpec
+from attitude_core.recording import EXIT_NO_PLANT
 from attitude_core.scenario import ScenarioError, load_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import ATTITUDE
@@ -40,7 +41,6 @@ from .rundir import check_replaceable, publish, stage
 ROLES = tuple(n.role for n in graph.NODES)
 PLANT_SIM, PLANT_EXTERNAL = "sim", "external"
 PLANTS = (PLANT_SIM, PLANT_EXTERNAL)
-EXIT_NO_PLANT = 3  # the recorder's exit code when no state arrived (attitude_ros.runner)
 # Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
 # queues for up to 1.5 s and finishes the bag).
 NODE_GRACE_S, RECORDER_GRACE_S = 1.5, 3.0

@@ -44,7 +44,7 @@ class RigidBodySimNode(Node):
         self.sub_torque = self.create_subscription(
             WrenchStamped, c.TORQUE, self.on_torque, c.qos(c.topic(c.TORQUE), subscriber=True)
         )
-        self.msg_clock, self.msg_att, self.msg_clock_due = ClockMsg(), QuaternionStamped(), False
+        self.msg_clock, self.msg_att = ClockMsg(), QuaternionStamped()
         self.msg_rate = Vector3Stamped()
         self.msg_att.header.frame_id = c.INERTIAL_FRAME
         self.msg_rate.header.frame_id = c.BODY_FRAME
@@ -113,14 +113,14 @@ class RigidBodySimNode(Node):
             cv.set_vector3(self.msg_applied.wrench.torque, d.applied)
             self.pub_applied.publish(self.msg_applied)
         if d.state is not None:
-            self.msg_clock_due = d.state.clock_ns is not None  # lockstep only
-            cv.set_stamp(self.msg_clock.clock, d.state.clock_ns or 0)
+            if d.state.clock_ns is not None:  # lockstep only
+                cv.set_stamp(self.msg_clock.clock, d.state.clock_ns)
             cv.set_stamp(self.msg_att.header.stamp, d.state.stamp_ns)
             cv.set_stamp(self.msg_rate.header.stamp, d.state.stamp_ns)
             cv.set_quaternion_from_mrp(self.msg_att.quaternion, d.state.sigma_bn)
             cv.set_vector3(self.msg_rate.vector, d.state.omega_b)
         if d.state is not None or d.resend:
-            if self.msg_clock_due:
+            if self.stepper.lockstep:  # /clock exists in lockstep only
                 self.pub_clock.publish(self.msg_clock)
             self.pub_att.publish(self.msg_att)
             self.pub_rate.publish(self.msg_rate)
