@@ -22,8 +22,16 @@ import random
 import socket
 import time
 from collections.abc import Iterator, Mapping
+from pathlib import Path
 
 import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+needs_workspace = pytest.mark.skipif(
+    not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
+    reason="colcon workspace not built (bash tools/bootstrap builds it)",
+)
+"""Mark for tests that start the project's nodes: they need the built colcon workspace."""
 
 DOMAIN_PORT_BASE = 22119  # domain_coordinator's _PORT_BASE
 DOMAIN_IDS = range(1, 102)

@@ -27,6 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from conftest import needs_workspace
 
 import attitude_tools.run as attitude_run
 from attitude_core.mrp import dcm_from_mrp, shadow
@@ -38,7 +39,6 @@ BAD_DIR = ROOT / "tests" / "bad_scenarios"
 ACCEPTED = BAD_DIR / "accepted_shadow_set.yaml"
 BAD_FILES = sorted(p for p in BAD_DIR.glob("*.yaml") if p != ACCEPTED)
 CASE1 = ROOT / "scenarios" / "case1.yaml"
-WORKSPACE_SETUP = ROOT / "ros2_ws" / "install" / "setup.bash"
 
 
 def expectation(path: Path) -> tuple[str | None, str]:
@@ -162,15 +162,9 @@ NODE_CASES = {
 }
 
 
-@pytest.mark.ros
-@pytest.mark.skipif(
-    not WORKSPACE_SETUP.exists(),
-    reason="colcon workspace not built (bash tools/bootstrap builds it)",
-)
-@pytest.mark.parametrize("name", sorted(NODE_CASES))
-def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
-    path = BAD_DIR / f"{name}.yaml"
-    code, fragments = NODE_CASES[name]
+def ros2_run(ros_domain: int, cwd: Path, package: str, executable: str, *ros_args: str):
+    """``ros2 run PACKAGE EXECUTABLE --ros-args ROS_ARGS`` on the test's reserved domain,
+    localhost discovery; the completed process, or None when the node kept running."""
     env = attitude_run.ros_environment()
     env["ROS_DOMAIN_ID"] = str(ros_domain)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
@@ -179,25 +173,25 @@ def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
     if ros2 is None:
         pytest.skip("no ros2 command")
     try:
-        proc = subprocess.run(
-            [
-                ros2,
-                "run",
-                "attitude_planner",
-                "fepf_planner",
-                "--ros-args",
-                "--params-file",
-                str(path),
-            ],
-            env=env,
-            cwd=tmp_path,
-            stdin=subprocess.DEVNULL,
-            capture_output=True,
-            text=True,
+        return subprocess.run(
+            [ros2, "run", package, executable, "--ros-args", *ros_args],
+            env=env, cwd=cwd, stdin=subprocess.DEVNULL, capture_output=True, text=True,
             timeout=60,
-        )
-    except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"the planner node accepted {path.name} and kept running: {exc.stderr}")
+        )  # fmt: skip
+    except subprocess.TimeoutExpired:
+        return None
+
+
+@pytest.mark.ros
+@needs_workspace
+@pytest.mark.parametrize("name", sorted(NODE_CASES))
+def test_planner_node_refuses_the_file(name, tmp_path, ros_domain):
+    path = BAD_DIR / f"{name}.yaml"
+    code, fragments = NODE_CASES[name]
+    proc = ros2_run(ros_domain, tmp_path, "attitude_planner", "fepf_planner",
+                    "--params-file", str(path))  # fmt: skip
+    if proc is None:
+        pytest.fail(f"the planner node accepted {path.name} and kept running")
     output = proc.stdout + proc.stderr
     assert proc.returncode == code, output
     assert "Traceback" not in output
@@ -217,29 +211,14 @@ NODE_PARAMETER_CASES = {
 
 
 @pytest.mark.ros
-@pytest.mark.skipif(
-    not WORKSPACE_SETUP.exists(),
-    reason="colcon workspace not built (bash tools/bootstrap builds it)",
-)
+@needs_workspace
 @pytest.mark.parametrize("assignment", sorted(NODE_PARAMETER_CASES))
 def test_simulator_node_refuses_a_bad_own_parameter(assignment, tmp_path, ros_domain):
     key, fragment = NODE_PARAMETER_CASES[assignment]
-    env = attitude_run.ros_environment()
-    env["ROS_DOMAIN_ID"] = str(ros_domain)
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    shim = Path(sys.prefix) / "bin" / "ros2"
-    ros2 = str(shim) if shim.exists() else shutil.which("ros2", path=env["PATH"])
-    if ros2 is None:
-        pytest.skip("no ros2 command")
-    try:
-        proc = subprocess.run(
-            [ros2, "run", "spacecraft_sim", "rigid_body_sim", "--ros-args",
-             "--params-file", str(CASE1), "-p", assignment],
-            env=env, cwd=tmp_path, stdin=subprocess.DEVNULL, capture_output=True, text=True,
-            timeout=60,
-        )  # fmt: skip
-    except subprocess.TimeoutExpired as exc:
-        pytest.fail(f"the simulator accepted {assignment} and kept running: {exc.stderr}")
+    proc = ros2_run(ros_domain, tmp_path, "spacecraft_sim", "rigid_body_sim",
+                    "--params-file", str(CASE1), "-p", assignment)  # fmt: skip
+    if proc is None:
+        pytest.fail(f"the simulator accepted {assignment} and kept running")
     output = proc.stdout + proc.stderr
     assert proc.returncode == 2, output
     assert "Traceback" not in output

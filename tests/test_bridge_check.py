@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_workspace
 
 from attitude_core.mrp import quat_from_mrp
 from attitude_core.node_parameters import LOCKSTEP, REALTIME, SIMULATOR
@@ -33,10 +34,7 @@ BROKEN = ROOT / "tests" / "broken_bridges"
 pytestmark = [
     pytest.mark.ros,
     pytest.mark.slow,
-    pytest.mark.skipif(
-        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-        reason="colcon workspace not built (bash tools/bootstrap builds it)",
-    ),
+    needs_workspace,
 ]
 
 sys.path.insert(0, str(ROOT / "src" / "attitude_conformance"))  # an ament package: from source

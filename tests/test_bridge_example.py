@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_workspace
 
 from attitude_core import node_graph
 from attitude_core.closed_loop import run_closed_loop
@@ -29,10 +30,7 @@ WAIT_S = 180.0  # wall-time deadline for reaching it (planner start-up included)
 pytestmark = [
     pytest.mark.ros,
     pytest.mark.slow,
-    pytest.mark.skipif(
-        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-        reason="colcon workspace not built (bash tools/bootstrap builds it)",
-    ),
+    needs_workspace,
 ]
 
 BRIDGE = NodeSpec(

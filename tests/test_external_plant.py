@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_workspace
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.metrics import dense_min_margin_deg
@@ -32,10 +33,7 @@ SETTLE_S = 2.0
 pytestmark = [
     pytest.mark.ros,
     pytest.mark.slow,
-    pytest.mark.skipif(
-        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-        reason="colcon workspace not built (bash tools/bootstrap builds it)",
-    ),
+    needs_workspace,
 ]
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_workspace
 
 from attitude_core import node_graph
 from attitude_core.closed_loop import run_closed_loop
@@ -32,10 +33,7 @@ WAIT_S = 120.0
 pytestmark = [
     pytest.mark.ros,
     pytest.mark.slow,
-    pytest.mark.skipif(
-        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-        reason="colcon workspace not built (bash tools/bootstrap builds it)",
-    ),
+    needs_workspace,
 ]
 
 

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from conftest import needs_workspace
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.control import PdGains, pd_torque
@@ -32,10 +33,7 @@ ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.prefix) / "bin"
 pytestmark = [
     pytest.mark.ros,
-    pytest.mark.skipif(
-        not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
-        reason="colcon workspace not built (bash tools/bootstrap builds it)",
-    ),
+    needs_workspace,
 ]
 
 
