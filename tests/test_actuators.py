@@ -110,7 +110,11 @@ def test_bad_limits_are_refused_naming_the_key(lines, key, reason):
 
 
 def test_offline_loop_never_applies_more_than_the_bound():
-    sc = loads_scenario(with_actuators("max_torque_nm: [0.03, 0.02, 0.05]"))
+    # A tumbling start saturates the controller (the guidance's profile alone does not).
+    text = with_actuators("max_torque_nm: [0.03, 0.02, 0.05]")
+    still = "initial_rate_rad_s: [0.0, 0.0, 0.0]"
+    assert still in text
+    sc = loads_scenario(text.replace(still, "initial_rate_rad_s: [0.02, -0.02, 0.02]"))
     run = run_closed_loop(sc)
     assert np.all(np.abs(run.torque_b) <= np.array(BOUND) * (1 + 1e-12))
     assert np.any(np.isclose(np.abs(run.torque_b), BOUND, rtol=0, atol=1e-12))  # it saturated

@@ -1,7 +1,8 @@
 """The offline closed loop: FEPF planner, PD controller and rigid body in one process.
 
-The loop at step ``k`` (``t_k = k dt``): the planner gives the target
-``(sigma_t, omega_t)`` for ``t_k`` (eqs. 6-10, 12), the controller the torque ``u_k``
+The loop at step ``k`` (``t_k = k dt``): the guidance gives the target
+``(sigma_t, omega_t)`` for the body state at ``t_k`` (eqs. 6-10, 12, closed on the
+measured state, :mod:`attitude_core.guidance`), the controller the torque ``u_k``
 from the body state at ``t_k`` (eq. 11), and the body is propagated to ``t_{k+1}`` with
 ``u_k`` held (eqs. 3-4). With ``actuators.max_torque_nm`` the controller scales its
 command into the bound and the plant clips per axis (:mod:`attitude_core.actuators`).
@@ -17,7 +18,7 @@ import numpy as np
 from .actuators import clip_to_bound
 from .control import PdGains, commanded_torque
 from .dynamics import RigidBody
-from .fepf import FepfPlanner
+from .guidance import Guidance
 from .scenario import Scenario
 from .trajectory import RunResult
 
@@ -29,7 +30,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     wall0 = time.perf_counter()
     n = scenario.n_steps
     dt = scenario.dt_s
-    planner = FepfPlanner.from_scenario(scenario)
+    guidance = Guidance.from_scenario(scenario)
     gains = PdGains(scenario.kp, scenario.kd)
     limit = scenario.actuators.max_torque_nm
     body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
@@ -44,7 +45,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     clock = time.perf_counter
     for k in range(n + 1):
         c0 = clock()
-        target = planner.step()
+        target = guidance.update(k * dt, body.sigma_bn, body.omega_b).target
         step_s[k] = clock() - c0
         u = commanded_torque(
             gains, body.sigma_bn, body.omega_b, target.sigma_t, target.omega_t, limit

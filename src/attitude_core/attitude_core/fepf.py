@@ -150,6 +150,7 @@ class FepfPlanner:
         self._gamma = math.radians(config.gamma_deg)
         self._cos_g, self._sin_g = math.cos(self._gamma), math.sin(self._gamma)
         self._paper_axis = config.direction_axis == "paper"
+        self.watchdog = True  # the stuck watchdog on the target (a guidance layer may own it)
         self.reset(sigma_0)
 
     @classmethod
@@ -184,24 +185,43 @@ class FepfPlanner:
         self._best_goal_distance = math.inf
         self._since_progress = 0.0
         self.last_obstacle_distance = math.nan
+        self.last_obstacle_direction: Vec3 = (0.0, 0.0, 0.0)
+        self._d_goal = math.inf
+        self._raw_speed = 0.0
+        self._checked: tuple[tuple[float, ...], float] | None = None
 
     # ------------------------------------------------------------------------------
 
     def step(self) -> PlannerOutput:
         """Return the target for the current step, then advance ``sigma_t`` by ``dt``."""
+        out = self.propose(self.dt, self.dt)
+        self.advance(self.dt)
+        return out
+
+    def propose(self, dt_since: float, dt_ahead: float) -> PlannerOutput:
+        """The target at the current ``sigma_t`` and the rate to hold from now on.
+
+        ``dt_since`` is the time since the previous proposal (it bounds the rate change,
+        improved variant), ``dt_ahead`` the expected time to the next one (it bounds the
+        step, see the module docstring). Nothing moves until :meth:`advance`.
+        """
         sx, sy, sz = self.sigma_t
         gx, gy, gz = self.goal
         ex, ey, ez = gx - sx, gy - sy, gz - sz
         d_goal = math.sqrt(ex * ex + ey * ey + ez * ez)
         cfg = self.cfg
+        self._d_goal = d_goal
         if self.status == PlannerStatus.ARRIVED or (
             self.status == PlannerStatus.TRACKING and d_goal <= cfg.goal_tolerance_mrp
         ):
             self.status = PlannerStatus.ARRIVED
             self.sigma_t = self.goal
             self._rate = (0.0, 0.0, 0.0)
+            self._checked = None
             return self._output(self.goal, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance)
         if self.status == PlannerStatus.STUCK:
+            self._rate = (0.0, 0.0, 0.0)
+            self._checked = None
             return self._output(
                 self.sigma_t, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance
             )
@@ -211,6 +231,7 @@ class FepfPlanner:
         d_obs = query.distance
         self.last_obstacle_distance = d_obs
         c_hat = (float(query.direction[0]), float(query.direction[1]), float(query.direction[2]))
+        self.last_obstacle_direction = c_hat
         ac = a_hat[0] * c_hat[0] + a_hat[1] * c_hat[1] + a_hat[2] * c_hat[2]
         inputs = {
             "goal_distance": min(d_goal, 1.0),
@@ -231,12 +252,71 @@ class FepfPlanner:
         if m_r > 0.0:
             r_hat = self._repulsive_direction(a_hat, c_hat, ac)
             vx, vy, vz = vx + m_r * r_hat[0], vy + m_r * r_hat[1], vz + m_r * r_hat[2]
-        vx, vy, vz = self._shape_rate(vx, vy, vz, d_goal)
+        vx, vy, vz = self._shape_rate(vx, vy, vz, d_goal, dt_since)
+        self._raw_speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+        (vx, vy, vz), _ = self._safe_step((vx, vy, vz), dt_ahead)
+        self._rate = (vx, vy, vz)
+        self._checked = (self._rate, dt_ahead)
+        return self._output(self.sigma_t, (vx, vy, vz), m_a, m_r, d_obs)
 
-        # Safety: the step stays inside the obstacle-free ball around sigma_t. Inside the
-        # widened buffer (a restart from a measured attitude can land there) there is
-        # no such ball: then a step is accepted only if it does not reduce the margin.
-        dt = self.dt
+    @property
+    def goal_distance_mrp(self) -> float:
+        """MRP distance from the target to the goal at the last proposal."""
+        return self._d_goal
+
+    @property
+    def rate(self) -> Vec3:
+        """The MRP rate held from the last proposal, 1/s."""
+        return cast(Vec3, self._rate)
+
+    def hold_rate(self, rate: Vec3Like) -> None:
+        """Replace the rate held until the next proposal (a guidance layer's shaping);
+        :meth:`advance` checks the step it gives like any other."""
+        self._rate = cast(Vec3, tuple(float(x) for x in rate))
+        self._checked = None
+
+    def advance(self, dt: float) -> None:
+        """Move ``sigma_t`` along the held rate for ``dt`` s (the time to the next state).
+
+        The step is kept safe as in the proposal; a step the proposal already checked
+        (same rate, no longer) is taken as is.
+        """
+        if self.status != PlannerStatus.TRACKING or dt <= 0.0:
+            return
+        rate = cast(Vec3, self._rate)
+        checked = self._checked
+        speed = math.sqrt(rate[0] ** 2 + rate[1] ** 2 + rate[2] ** 2)
+        if checked is not None and checked[0] == rate and dt <= checked[1]:
+            speed = self._raw_speed  # the terminal rule sees the step before the shortening
+            new = (
+                self.sigma_t[0] + rate[0] * dt,
+                self.sigma_t[1] + rate[1] * dt,
+                self.sigma_t[2] + rate[2] * dt,
+            )
+        else:
+            rate, new = self._safe_step(rate, dt)
+            self._rate = rate
+        # Terminal step: land exactly on the goal when the step would reach it.
+        gx, gy, gz = self.goal
+        d_goal = self._d_goal
+        nx, ny, nz = gx - new[0], gy - new[1], gz - new[2]
+        step_len = dt * speed
+        if nx * nx + ny * ny + nz * nz <= self.cfg.goal_tolerance_mrp**2 or (
+            self.cfg.terminal_time_constant_s == 0.0
+            and step_len >= d_goal
+            and d_goal < self.last_obstacle_distance
+        ):
+            new = self.goal
+        self._advance(new, d_goal, dt)
+
+    def _safe_step(self, rate: Vec3, dt: float) -> tuple[Vec3, Vec3]:
+        """``(rate, end point)``: the rate shortened so that the step of ``dt`` stays
+        inside the obstacle-free ball around ``sigma_t``. Inside the widened buffer (a
+        restart from a measured attitude can land there) there is no such ball: then a
+        step is accepted only if it does not reduce the margin."""
+        sx, sy, sz = self.sigma_t
+        vx, vy, vz = rate
+        d_obs = self.last_obstacle_distance
         step_len = dt * math.sqrt(vx * vx + vy * vy + vz * vz)
         floor = 0.5 * self.geometry.inflation_deg
         if d_obs > 0.0:
@@ -255,18 +335,7 @@ class FepfPlanner:
         else:
             vx = vy = vz = 0.0
             new = self.sigma_t
-
-        # Terminal step: land exactly on the goal when the step would reach it.
-        nx, ny, nz = gx - new[0], gy - new[1], gz - new[2]
-        if nx * nx + ny * ny + nz * nz <= cfg.goal_tolerance_mrp**2 or (
-            cfg.terminal_time_constant_s == 0.0 and step_len >= d_goal and d_goal < d_obs
-        ):
-            new = self.goal
-
-        out = self._output(self.sigma_t, (vx, vy, vz), m_a, m_r, d_obs)
-        self._rate = (vx, vy, vz)
-        self._advance(new, d_goal)
-        return out
+        return (vx, vy, vz), new
 
     # ------------------------------------------------------------------------------
 
@@ -297,7 +366,7 @@ class FepfPlanner:
                 axis = cast(Vec3, _any_perpendicular(c_hat))
         return _rotate(neg_c, axis, self._cos_g, self._sin_g)
 
-    def _shape_rate(self, vx: float, vy: float, vz: float, d_goal: float) -> Vec3:
+    def _shape_rate(self, vx: float, vy: float, vz: float, d_goal: float, dt: float) -> Vec3:
         """Improved variant: bounded target acceleration and terminal slow-down."""
         cfg = self.cfg
         a_max = cfg.max_accel_mrp_s2
@@ -305,7 +374,7 @@ class FepfPlanner:
             px, py, pz = self._rate
             dx, dy, dz = vx - px, vy - py, vz - pz
             dv = math.sqrt(dx * dx + dy * dy + dz * dz)
-            dv_max = a_max * self.dt
+            dv_max = a_max * dt
             if dv > dv_max:
                 f = dv_max / dv
                 vx, vy, vz = px + dx * f, py + dy * f, pz + dz * f
@@ -318,7 +387,7 @@ class FepfPlanner:
                 vx, vy, vz = vx * f, vy * f, vz * f
         return vx, vy, vz
 
-    def _advance(self, new: Vec3, d_goal_before: float) -> None:
+    def _advance(self, new: Vec3, d_goal_before: float, dt: float) -> None:
         self.sigma_t = new
         # Shadow switch keeps the target inside the unit ball (eq. 2).
         s2 = new[0] ** 2 + new[1] ** 2 + new[2] ** 2
@@ -329,11 +398,13 @@ class FepfPlanner:
             sr = new[0] * r[0] + new[1] * r[1] + new[2] * r[2]
             self._rate = tuple(-r[i] / s2 + 2.0 * sr * new[i] / (s2 * s2) for i in range(3))
         # Stuck watchdog: no new best distance to the goal for stuck_timeout_s.
+        if not self.watchdog:
+            return
         if d_goal_before < self._best_goal_distance - 1e-6:
             self._best_goal_distance = d_goal_before
             self._since_progress = 0.0
         else:
-            self._since_progress += self.dt
+            self._since_progress += dt
             if self._since_progress >= self.cfg.stuck_timeout_s:
                 self.status = PlannerStatus.STUCK
 

@@ -1,0 +1,264 @@
+"""Guidance closed on the measured state: the FEPF target, timed by the state stamps,
+time-scaled to the actuator limits, held when the body falls behind, and an arrival
+judged on the body.
+
+:meth:`Guidance.update` takes one measured state ``(t, sigma_BN, omega_B)`` and returns
+the target for that instant:
+
+1. **Real time.** The target is moved along the rate held since the previous state for
+   the real interval between the two stamps (:meth:`FepfPlanner.advance`, safety-checked),
+   so states at 5, 10 or 20 Hz give the same target trajectory in time.
+2. **FEPF.** The paper's law (eqs. 6-10) proposes the rate at the new target.
+3. **Time scaling** (only with ``actuators`` limits). In body-rate space (eq. 12):
+   ``|omega_t| <=`` :data:`RATE_USE` ``max_rate_rad_s``; the rate vector changes by at most
+   ``alpha_profile dt``; the speed is capped by the braking curve ``sqrt(2 alpha theta)``
+   to the goal (``theta`` the principal angle left) and by the braking curve to the
+   closest buffered cone rim (in every direction: the closest point moves as the target
+   slides along a cone, so a cap on the approach component alone can demand a stop the
+   body cannot make; the isotropic cap falls no faster than ``alpha``). ``alpha_profile`` is a
+   fraction (:data:`TORQUE_USE`) of what the smallest torque bound gives about the
+   largest principal axis after the worst gyroscopic torque at the rate bound, so the
+   PD law keeps the rest for its corrections and the command stays inside the bound.
+4. **Tracking governor.** With ``e`` the principal angle of ``sigma_B/R``, the rate is
+   scaled by ``clip(2 - e / e_hold, 0, 1)``: full speed up to ``e_hold``, held at
+   ``2 e_hold``. ``e_hold`` is half the planner's buffer, so while it holds the measured
+   body keeps at least half the buffer from every cone (the target keeps the whole
+   buffer, and a boresight moves by at most the rotation angle between two attitudes).
+5. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
+   body is within the arrival tolerances (attitude and rate); it is withdrawn if the
+   body leaves twice those tolerances. ``stuck`` when neither the target's nor the
+   body's distance to the goal has improved for ``planner.stuck_timeout_s`` (plus,
+   with limits, the time to stop from the rate bound); the target then holds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from .fepf import FepfPlanner, PlannerOutput
+from .mrp import Vec3Like, mrp_rate_single, omega_from_mrp_rate_single, principal_angle, relative
+from .status import PlannerStatus
+
+if TYPE_CHECKING:
+    from .scenario import Scenario
+
+__all__ = ["TORQUE_USE", "RATE_USE", "BRAKE_USE", "GuidanceLimits", "GuidanceOutput", "Guidance", "time_bound_s"]
+
+TORQUE_USE = 0.85
+"""Fraction of the available acceleration the target profile uses; the PD law keeps the
+rest for its corrections (tracking error, disturbances)."""
+
+RATE_USE = 0.95
+"""Fraction of ``max_rate_rad_s`` the target's rate may reach, for the body's overshoot."""
+
+BRAKE_USE = 1.0
+"""Fraction of the angle to the closest buffered rim that the braking curve may use."""
+
+_PROGRESS_RAD = 1e-4  # a new best body angle to the goal must beat the old by this
+_PROGRESS_MRP = 1e-6  # the same for the target's MRP distance
+_MIN_HOLD_DEG = 0.1
+
+
+@dataclass(frozen=True)
+class GuidanceLimits:
+    """The target profile's bounds in body-rate space, from the actuator limits.
+
+    ``max_rate_rad_s`` bounds ``|omega_t|`` and ``accel_rad_s2`` its change; None is
+    unlimited. ``alpha_max_rad_s2`` is the rest-to-rest bound's ``alpha_max``: the
+    smallest torque bound over the largest principal inertia.
+    """
+
+    max_rate_rad_s: float | None = None
+    accel_rad_s2: float | None = None
+    alpha_max_rad_s2: float | None = None
+
+    @classmethod
+    def from_actuators(
+        cls,
+        inertia_kgm2: npt.ArrayLike,
+        max_torque_nm: tuple[float, float, float] | None,
+        max_rate_rad_s: float | None,
+    ) -> GuidanceLimits:
+        if max_torque_nm is None:
+            return cls(max_rate_rad_s, None, None)
+        j = np.linalg.eigvalsh(np.asarray(inertia_kgm2, dtype=float).reshape(3, 3))
+        j_min, j_max = float(j[0]), float(j[-1])
+        tau = float(min(max_torque_nm))
+        rate = max_rate_rad_s
+        spread = j_max - j_min
+        if rate is None and spread > 0.0:
+            # No rate bound declared: keep the gyroscopic torque under half the bound.
+            rate = math.sqrt(0.5 * tau / spread)
+        gyro = 0.0 if rate is None else spread * rate * rate
+        accel = TORQUE_USE * max(tau - gyro, 0.25 * tau) / j_max
+        return cls(rate, accel, tau / j_max)
+
+
+def time_bound_s(
+    rotation_rad: float, max_rate_rad_s: float | None, alpha_max_rad_s2: float | None
+) -> float | None:
+    """Rest-to-rest time bound along a rotation of ``rotation_rad``.
+
+    ``T* = theta / omega_max + omega_max / alpha_max`` when the rate bound is reached
+    (``theta >= omega_max^2 / alpha_max``), ``2 sqrt(theta / alpha_max)`` when it is
+    not, ``theta / omega_max`` with no torque bound; None with neither bound.
+    """
+    theta = max(float(rotation_rad), 0.0)
+    if alpha_max_rad_s2 is None:
+        return None if max_rate_rad_s is None else theta / max_rate_rad_s
+    if max_rate_rad_s is None or theta < max_rate_rad_s**2 / alpha_max_rad_s2:
+        return 2.0 * math.sqrt(theta / alpha_max_rad_s2)
+    return theta / max_rate_rad_s + max_rate_rad_s / alpha_max_rad_s2
+
+
+def _braking_speed(alpha: float, theta: float, dt: float) -> float:
+    """The largest speed from which steps of ``dt`` decelerating at ``alpha`` stop
+    within ``theta``: ``sqrt(2 alpha theta + (alpha dt / 2)^2) - alpha dt / 2`` (the
+    sampled form of ``sqrt(2 alpha theta)``)."""
+    half = 0.5 * alpha * dt
+    return math.sqrt(2.0 * alpha * theta + half * half) - half
+
+
+@dataclass(slots=True)
+class GuidanceOutput:
+    """The target of one state and what the guidance knows about the tracking."""
+
+    target: PlannerOutput
+    tracking_error_deg: float  # principal angle of sigma_B/R
+    goal_error_deg: float  # principal angle of sigma_B/D
+    speed_factor: float  # the governor's factor, 1 = full speed, 0 = held
+
+
+class Guidance:
+    """FEPF guidance closed on the measured state (see the module docstring)."""
+
+    def __init__(
+        self,
+        planner: FepfPlanner,
+        limits: GuidanceLimits,
+        attitude_tol_deg: float,
+        rate_tol_rad_s: float,
+    ) -> None:
+        self.planner = planner
+        planner.watchdog = False  # progress is judged here, on the body too
+        self.limits = limits
+        self.attitude_tol_deg = attitude_tol_deg
+        self.rate_tol_rad_s = rate_tol_rad_s
+        self.hold_deg = max(0.5 * planner.geometry.inflation_deg, _MIN_HOLD_DEG)
+        self.goal = np.asarray(planner.goal, dtype=float)
+        # Slow actuators need longer to turn round: add the time to stop from the rate bound.
+        self.stuck_timeout_s = planner.cfg.stuck_timeout_s
+        if limits.accel_rad_s2 is not None and limits.max_rate_rad_s is not None:
+            self.stuck_timeout_s += limits.max_rate_rad_s / limits.accel_rad_s2
+        self.t_prev: float | None = None
+        self.omega_prev = np.zeros(3)
+        self.status = PlannerStatus.TRACKING
+        self._best_body = math.inf
+        self._best_target = math.inf
+        self._since_progress = 0.0
+
+    @classmethod
+    def from_scenario(cls, scenario: Scenario, sigma_0: Vec3Like | None = None) -> Guidance:
+        act = scenario.actuators
+        return cls(
+            FepfPlanner.from_scenario(scenario, sigma_0),
+            GuidanceLimits.from_actuators(
+                scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+            ),
+            scenario.arrival.attitude_tol_deg,
+            scenario.arrival.rate_tol_rad_s,
+        )
+
+    def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
+        """The target for the measured state at time ``t_s`` (s, non-decreasing)."""
+        planner = self.planner
+        nominal = planner.dt
+        dt = 0.0 if self.t_prev is None else float(t_s) - self.t_prev
+        if dt < 0.0:
+            raise ValueError(f"state time {t_s} s is before the previous {self.t_prev} s")
+        if dt == 0.0 and self.t_prev is not None:
+            raise ValueError(f"state time {t_s} s repeats the previous one")
+        self.t_prev = float(t_s)
+        planner.advance(dt)
+        out = planner.propose(dt if dt > 0.0 else nominal, max(nominal, dt))
+        sigma_b = np.asarray(sigma_bn, dtype=float)
+        e_track = math.degrees(float(principal_angle(relative(sigma_b, out.sigma_t))))
+        e_goal = math.degrees(float(principal_angle(relative(sigma_b, self.goal))))
+        factor = 1.0
+        if planner.status == PlannerStatus.TRACKING:
+            omega_t = self._time_scaled(out, dt if dt > 0.0 else nominal)
+            factor = min(max(2.0 - e_track / self.hold_deg, 0.0), 1.0)
+            omega_t = factor * omega_t
+            self.omega_prev = omega_t
+            sigma_t = (float(out.sigma_t[0]), float(out.sigma_t[1]), float(out.sigma_t[2]))
+            rate = mrp_rate_single(
+                sigma_t, (float(omega_t[0]), float(omega_t[1]), float(omega_t[2]))
+            )
+            planner.hold_rate(rate)
+            out = replace(out, sigma_t_dot=np.array(rate), omega_t=omega_t)
+        else:
+            self.omega_prev = np.zeros(3)
+        self._judge(dt, e_goal, float(np.linalg.norm(np.asarray(omega_b, dtype=float))))
+        return GuidanceOutput(replace(out, status=self.status), e_track, e_goal, factor)
+
+    # ------------------------------------------------------------------------------
+
+    def _time_scaled(self, out: PlannerOutput, dt: float) -> npt.NDArray[np.float64]:
+        """Step 3 of the module docstring: the FEPF rate within the limits."""
+        lim = self.limits
+        omega = np.array(out.omega_t, dtype=float)
+        if lim.max_rate_rad_s is None and lim.accel_rad_s2 is None:
+            return omega
+        speed = float(np.linalg.norm(omega))
+        cap = math.inf if lim.max_rate_rad_s is None else RATE_USE * lim.max_rate_rad_s
+        alpha = lim.accel_rad_s2
+        if alpha is not None:
+            sigma_t = out.sigma_t
+            theta_goal = float(principal_angle(relative(sigma_t, self.goal)))
+            # MRP distance to the buffered rim as an angle (|d theta| = 4 |d sigma| / (1 + s.s)).
+            d_obs = max(self.planner.last_obstacle_distance, 0.0)
+            theta_obs = 4.0 * d_obs / (1.0 + float(sigma_t @ sigma_t))
+            cap = min(cap, _braking_speed(alpha, min(theta_goal, BRAKE_USE * theta_obs), dt))
+        if speed > cap:
+            omega *= cap / speed
+        if alpha is not None:
+            change = omega - self.omega_prev
+            size = float(np.linalg.norm(change))
+            if size > alpha * dt:
+                omega = self.omega_prev + change * (alpha * dt / size)
+        return omega
+
+    def _judge(self, dt: float, e_goal_deg: float, rate_b: float) -> None:
+        """Step 5 of the module docstring."""
+        planner = self.planner
+        if self.status == PlannerStatus.STUCK:
+            return
+        on_goal = planner.status == PlannerStatus.ARRIVED
+        if on_goal and e_goal_deg <= self.attitude_tol_deg and rate_b <= self.rate_tol_rad_s:
+            self.status = PlannerStatus.ARRIVED
+        elif self.status == PlannerStatus.ARRIVED and (
+            e_goal_deg > 2.0 * self.attitude_tol_deg or rate_b > 2.0 * self.rate_tol_rad_s
+        ):
+            self.status = PlannerStatus.TRACKING
+        if self.status == PlannerStatus.ARRIVED:
+            self._since_progress = 0.0
+            return
+        body = math.radians(e_goal_deg)
+        target = planner.goal_distance_mrp if not on_goal else 0.0
+        progressed = False
+        if body < self._best_body - _PROGRESS_RAD:
+            self._best_body, progressed = body, True
+        if target < self._best_target - _PROGRESS_MRP:
+            self._best_target, progressed = target, True
+        if progressed:
+            self._since_progress = 0.0
+            return
+        self._since_progress += dt
+        if self._since_progress >= self.stuck_timeout_s:
+            self.status = PlannerStatus.STUCK
+            planner.status = PlannerStatus.STUCK  # the target holds where it is
