@@ -119,6 +119,9 @@ def test_diagnostics_values_are_in_keys_order():
         "m_a",
         "m_r",
         "rejected_messages",
+        "tracking_error_deg",
+        "goal_error_deg",
+        "speed_factor",
     )
     assert all(isinstance(v, str) for _, v in values)
     assert dict(values)["status"] == "tracking"
@@ -265,7 +268,7 @@ def test_readiness_rule(e):
     r = g.readiness(e)
     assert r.min_subscribers == {
         t.ATTITUDE: e,
-        t.ANGULAR_VELOCITY: e - 1,
+        t.ANGULAR_VELOCITY: e,
         t.TARGET_MRP: e - 1,
         t.TARGET_RATE: e - 1,
         t.TORQUE: e - 1,

@@ -25,6 +25,9 @@ __all__ = [
     "M_A",
     "M_R",
     "REJECTED_MESSAGES",
+    "TRACKING_ERROR_DEG",
+    "GOAL_ERROR_DEG",
+    "SPEED_FACTOR",
     "KEYS",
     "PlannerDiagnostics",
 ]
@@ -39,6 +42,9 @@ KEEP_OUT_MARGIN_DEG = "keep_out_margin_deg"  # exact margin of the measured atti
 M_A = "m_a"  # attractive FIS magnitude, MRP/s (eq. 6)
 M_R = "m_r"  # repulsive FIS magnitude, MRP/s (eq. 6)
 REJECTED_MESSAGES = "rejected_messages"  # refused input messages so far
+TRACKING_ERROR_DEG = "tracking_error_deg"  # principal angle body to target, deg
+GOAL_ERROR_DEG = "goal_error_deg"  # principal angle body to goal, deg
+SPEED_FACTOR = "speed_factor"  # the tracking governor's factor (1 full speed, 0 held)
 KEYS = (
     STATUS,
     STEP_TIME_US,
@@ -47,6 +53,9 @@ KEYS = (
     M_A,
     M_R,
     REJECTED_MESSAGES,
+    TRACKING_ERROR_DEG,
+    GOAL_ERROR_DEG,
+    SPEED_FACTOR,
 )
 
 
@@ -61,6 +70,9 @@ class PlannerDiagnostics:
     m_a: float
     m_r: float
     rejected_messages: int
+    tracking_error_deg: float = float("nan")
+    goal_error_deg: float = float("nan")
+    speed_factor: float = float("nan")
 
     def values(self) -> list[tuple[str, str]]:
         """The key/value pairs, in :data:`KEYS` order."""
@@ -72,6 +84,9 @@ class PlannerDiagnostics:
             (M_A, repr(float(self.m_a))),
             (M_R, repr(float(self.m_r))),
             (REJECTED_MESSAGES, str(int(self.rejected_messages))),
+            (TRACKING_ERROR_DEG, repr(float(self.tracking_error_deg))),
+            (GOAL_ERROR_DEG, repr(float(self.goal_error_deg))),
+            (SPEED_FACTOR, repr(float(self.speed_factor))),
         ]
 
     @classmethod
@@ -94,4 +109,7 @@ class PlannerDiagnostics:
             m_a=number(M_A),
             m_r=number(M_R),
             rejected_messages=int(values.get(REJECTED_MESSAGES, "-1")),
+            tracking_error_deg=number(TRACKING_ERROR_DEG),
+            goal_error_deg=number(GOAL_ERROR_DEG),
+            speed_factor=number(SPEED_FACTOR),
         )

@@ -41,13 +41,21 @@ import numpy as np
 import numpy.typing as npt
 
 from .fepf import FepfPlanner, PlannerOutput
-from .mrp import Vec3Like, mrp_rate_single, omega_from_mrp_rate_single, principal_angle, relative
+from .mrp import Vec3Like, mrp_rate_single, principal_angle, relative
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
     from .scenario import Scenario
 
-__all__ = ["TORQUE_USE", "RATE_USE", "BRAKE_USE", "GuidanceLimits", "GuidanceOutput", "Guidance", "time_bound_s"]
+__all__ = [
+    "TORQUE_USE",
+    "RATE_USE",
+    "BRAKE_USE",
+    "GuidanceLimits",
+    "GuidanceOutput",
+    "Guidance",
+    "time_bound_s",
+]
 
 TORQUE_USE = 0.85
 """Fraction of the available acceleration the target profile uses; the PD law keeps the
@@ -59,8 +67,10 @@ RATE_USE = 0.95
 BRAKE_USE = 1.0
 """Fraction of the angle to the closest buffered rim that the braking curve may use."""
 
-_PROGRESS_RAD = 1e-4  # a new best body angle to the goal must beat the old by this
-_PROGRESS_MRP = 1e-6  # the same for the target's MRP distance
+# Progress: a new best distance to the goal must beat the old one by this much (a
+# target creeping towards the governor's hold point must not count).
+_PROGRESS_RAD = 1e-3  # body, principal angle
+_PROGRESS_MRP = 2.5e-4  # target, MRP distance (about the same angle)
 _MIN_HOLD_DEG = 0.1
 
 
@@ -203,6 +213,8 @@ class Guidance:
             out = replace(out, sigma_t_dot=np.array(rate), omega_t=omega_t)
         else:
             self.omega_prev = np.zeros(3)
+            if planner.status == PlannerStatus.STUCK:
+                factor = 0.0  # held
         self._judge(dt, e_goal, float(np.linalg.norm(np.asarray(omega_b, dtype=float))))
         return GuidanceOutput(replace(out, status=self.status), e_track, e_goal, factor)
 

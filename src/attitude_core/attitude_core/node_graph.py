@@ -68,7 +68,7 @@ PLANNER = NodeSpec(
     "attitude_planner",
     "fepf_planner",
     "fepf_planner",
-    subscribes=(t.ATTITUDE,),
+    subscribes=(t.ATTITUDE, t.ANGULAR_VELOCITY),
     publishes=(t.TARGET_MRP, t.TARGET_RATE, t.PLANNER_STATUS, t.KEEP_OUT_MARGIN, t.DIAGNOSTICS),
     parameters=params.PLANNER,
 )
@@ -126,7 +126,7 @@ def readiness(expected_subscribers: int) -> Readiness:
 
     Every state listener is taken to observe each topic the loop exchanges (state,
     target, torque) except where the table says otherwise: the planner listens to the
-    attitude only. A topic then needs the state listeners less the loop nodes that do
+    state only. A topic then needs the state listeners less the loop nodes that do
     not subscribe it, plus the simulator's own subscription; each topic that a loop
     peer publishes for another needs that publisher.
     """

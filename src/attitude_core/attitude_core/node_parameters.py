@@ -51,10 +51,13 @@ PLANNER = NodeParameters(
     scenario=(
         "scenario_name",
         "dt_s",
+        "inertia_kgm2",
         "desired_mrp",
         "instruments.*",
         "bright_objects.*",
         "planner.*",
+        "actuators.*",
+        "arrival.*",
     ),
 )
 

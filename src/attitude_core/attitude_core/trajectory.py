@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .guidance import GuidanceLimits, time_bound_s
 from .metrics import arrival_time, dense_min_margin_deg, path_length_mrp
 from .scenario import Scenario
 from .status import PlannerStatus
@@ -77,9 +78,44 @@ def summarize(run: RunResult) -> dict[str, Any]:
         "final_rate_rad_s": float(np.linalg.norm(run.omega_b[-1])),
         "peak_rate_rad_s": float(np.max(np.linalg.norm(run.omega_b, axis=1))),
         "peak_torque_nm": float(np.max(np.linalg.norm(run.torque_b, axis=1))),
+        **_against_limits(run, t_reach),
         "planner_step_us_median": float(np.median(step_s) * 1e6),
         "planner_step_us_p99": float(np.percentile(step_s, 99) * 1e6),
         "sim_time_s": sc.sim_time_s,
         "dt_s": sc.dt_s,
         "wall_time_s": run.wall_time_s,
+    }
+
+
+def _against_limits(run: RunResult, t_reach: float | None) -> dict[str, Any]:
+    """The run against its actuator limits.
+
+    ``rotation_deg`` is the rotation flown up to the arrival (the integral of
+    ``|omega_B| dt``); ``time_bound_s`` the rest-to-rest bound along it
+    (:func:`attitude_core.guidance.time_bound_s`) and ``time_ratio_to_bound`` the arrival
+    time over that bound (None without limits or without an arrival).
+    ``peak_torque_to_bound`` is the largest ``|u_i| / max_torque_nm_i`` and
+    ``peak_rate_to_bound`` the peak body rate over ``max_rate_rad_s``.
+    """
+    act = run.scenario.actuators
+    end = len(run.t) if t_reach is None else int(np.searchsorted(run.t, t_reach)) + 1
+    speed = np.linalg.norm(run.omega_b[:end], axis=1)
+    flown = float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(run.t[:end])))
+    limits = GuidanceLimits.from_actuators(
+        run.scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+    )
+    bound = time_bound_s(flown, act.max_rate_rad_s, limits.alpha_max_rad_s2)
+    ratio = None if bound is None or t_reach is None or bound <= 0.0 else t_reach / bound
+    torque_ratio = None
+    if act.max_torque_nm is not None:
+        torque_ratio = float(np.max(np.abs(run.torque_b) / np.asarray(act.max_torque_nm)))
+    rate_ratio = None
+    if act.max_rate_rad_s is not None:
+        rate_ratio = float(np.max(np.linalg.norm(run.omega_b, axis=1)) / act.max_rate_rad_s)
+    return {
+        "rotation_deg": float(np.degrees(flown)),
+        "time_bound_s": bound,
+        "time_ratio_to_bound": ratio,
+        "peak_torque_to_bound": torque_ratio,
+        "peak_rate_to_bound": rate_ratio,
     }

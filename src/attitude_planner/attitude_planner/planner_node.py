@@ -1,17 +1,22 @@
 """FEPF planner node (``ros2 run attitude_planner fepf_planner``).
 
-Subscribes ``/spacecraft/attitude``; for each new state stamp it takes one FEPF step
-(paper eqs. 6-10, 12) and publishes, stamped with that state's stamp:
-``/planner/target_mrp`` (``sigma_t`` = sigma_RN), ``/planner/target_rate`` (``omega_t``,
-target-frame axes, rad/s), ``/planner/keep_out_margin_deg`` (the smallest keep-out
-margin of the measured attitude, eq. 5) and ``/diagnostics``; ``/planner/status``
-(a ``PlannerStatus`` value) is latched and published on change.
+Subscribes the measured state, ``/spacecraft/attitude`` and
+``/spacecraft/angular_velocity``, and answers each stamp once both messages of that
+stamp are in: one guidance update (:class:`attitude_core.guidance.Guidance`: the FEPF,
+paper eqs. 6-10, 12, moved for the real time between stamps, time-scaled to the
+actuator limits, closed on the measured state) and publishes, stamped with that
+state's stamp: ``/planner/target_mrp`` (``sigma_t`` = sigma_RN),
+``/planner/target_rate`` (``omega_t``, target-frame axes, rad/s),
+``/planner/keep_out_margin_deg`` (the smallest keep-out margin of the measured
+attitude, eq. 5) and ``/diagnostics``; ``/planner/status`` (a ``PlannerStatus`` value,
+``arrived`` only when the body is on the goal) is latched and published on change.
 
 It only reacts to messages, so lockstep simulation, real time and a hardware bridge
 look the same to it. The planner starts from the first measured attitude (equal to the
 scenario's ``initial_mrp`` on a fresh run), so a restarted planner resumes from where
 the spacecraft is. A repeated stamp (a lockstep re-send) gets the same answer again;
-an older stamp or an unusable quaternion is rejected, logged and counted.
+an older stamp, a non-finite rate or an unusable quaternion is rejected, logged and
+counted.
 """
 
 from __future__ import annotations
@@ -25,19 +30,24 @@ from rclpy.node import Node
 from std_msgs.msg import Float64, String
 
 from attitude_core import diagnostics, node_graph
-from attitude_core.fepf import FepfPlanner, PlannerOutput
+from attitude_core.fepf import FepfPlanner
+from attitude_core.guidance import Guidance, GuidanceOutput
 from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     bad_frame,
     bad_quaternion,
+    bad_vector,
     mrp_from_quaternion,
     reject,
     set_vector3,
     stamp_ns,
+    vector3,
 )
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.runner import run
+
+_PENDING_MAX = 64  # stamps kept while waiting for the other half of the state
 
 
 class FepfPlannerNode(Node):
@@ -46,8 +56,10 @@ class FepfPlannerNode(Node):
         _, self.scenario = declare_scenario_node(self, node_graph.PLANNER.parameters)
         self.exact = self.scenario.keep_out(samples=16)
         FepfPlanner.from_scenario(self.scenario)  # builds the FIS lookup tables up front
-        self.planner: FepfPlanner | None = None
+        self.guidance: Guidance | None = None
+        self.first_stamp_ns = 0
         self.last_stamp_ns: int | None = None
+        self.pending: dict[int, list] = {}  # stamp -> [sigma_BN, omega_B] while pairing
         self.rejected = 0
         self.status: PlannerStatus | None = None
         pub = self.create_publisher
@@ -61,49 +73,75 @@ class FepfPlannerNode(Node):
         self.out_rate.header.frame_id = c.TARGET_FRAME
         self.out_margin = Float64()
         self.out_diag = None
-        self.create_subscription(
-            QuaternionStamped,
-            c.ATTITUDE,
-            self.on_attitude,
-            c.qos(c.topic(c.ATTITUDE), subscriber=True),
-            qos_overriding_options=c.state_qos_overrides(c.topic(c.ATTITUDE)),
-        )
+        for slot, (name, msg_type) in enumerate(
+            ((c.ATTITUDE, QuaternionStamped), (c.ANGULAR_VELOCITY, Vector3Stamped))
+        ):
+            self.create_subscription(
+                msg_type,
+                name,
+                self.callback(slot, name),
+                c.qos(c.topic(name), subscriber=True),
+                qos_overriding_options=c.state_qos_overrides(c.topic(name)),
+            )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': FEPF variant {self.scenario.planner.variant}, "
             f"{len(self.scenario.instrument_names)} instrument(s), "
             f"{len(self.scenario.bright_object_names)} bright object(s)"
         )
 
-    def on_attitude(self, msg: QuaternionStamped) -> None:
-        stamp = stamp_ns(msg.header.stamp)
-        if self.last_stamp_ns is not None and stamp <= self.last_stamp_ns:
-            if stamp == self.last_stamp_ns:
-                self.publish()  # lockstep re-send: same state, same answer
-            else:
-                reject(
-                    self,
-                    c.ATTITUDE,
-                    f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns",
-                )
-            return
-        reason = bad_frame(msg, c.ATTITUDE) or bad_quaternion(msg.quaternion)
-        if reason:
-            reject(self, c.ATTITUDE, reason)
-            return
-        sigma_bn = mrp_from_quaternion(msg.quaternion)
-        if self.planner is None:
-            self.planner = FepfPlanner.from_scenario(self.scenario, sigma_0=sigma_bn)
+    def callback(self, slot: int, name: str):
+        def on_message(msg) -> None:
+            stamp = stamp_ns(msg.header.stamp)
+            if self.last_stamp_ns is not None and stamp <= self.last_stamp_ns:
+                if stamp == self.last_stamp_ns:
+                    if slot == 0:
+                        self.publish()  # lockstep re-send: same state, same answer
+                else:
+                    reject(
+                        self,
+                        name,
+                        f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns",
+                    )
+                return
+            reason = bad_frame(msg, name)
+            value = None
+            if reason is None and slot == 0:
+                reason = bad_quaternion(msg.quaternion)
+                if reason is None:
+                    value = mrp_from_quaternion(msg.quaternion)
+            elif reason is None:
+                value = vector3(msg.vector)
+                reason = bad_vector(value, "angular velocity")
+            if reason:
+                reject(self, name, reason)
+                return
+            state = self.pending.setdefault(stamp, [None, None])
+            state[slot] = value
+            if state[0] is not None and state[1] is not None:
+                self.answer(stamp, msg.header.stamp, state[0], state[1])
+            elif len(self.pending) > _PENDING_MAX:
+                del self.pending[min(self.pending)]
+
+        return on_message
+
+    def answer(self, stamp: int, stamp_msg, sigma_bn, omega_b) -> None:
+        for old in [s for s in self.pending if s <= stamp]:
+            del self.pending[old]
+        if self.guidance is None:
+            self.guidance = Guidance.from_scenario(self.scenario, sigma_0=sigma_bn)
+            self.first_stamp_ns = stamp
             self.get_logger().info(f"planning from sigma_BN = {sigma_bn.round(6).tolist()}")
         t0 = time.perf_counter()
-        out = self.planner.step()
+        result = self.guidance.update((stamp - self.first_stamp_ns) / 1e9, sigma_bn, omega_b)
         step_s = time.perf_counter() - t0
+        out = result.target
         self.last_stamp_ns = stamp
-        self.out_mrp.header.stamp = msg.header.stamp
-        self.out_rate.header.stamp = msg.header.stamp
+        self.out_mrp.header.stamp = stamp_msg
+        self.out_rate.header.stamp = stamp_msg
         set_vector3(self.out_mrp.vector, out.sigma_t)
         set_vector3(self.out_rate.vector, out.omega_t)
         self.out_margin.data = float(self.exact.min_margin_deg_single(sigma_bn))
-        self.out_diag = self.diagnostics(msg.header.stamp, out, step_s)
+        self.out_diag = self.diagnostics(stamp_msg, result, step_s)
         self.publish()
         if out.status != self.status:
             self.status = out.status
@@ -116,7 +154,8 @@ class FepfPlannerNode(Node):
         self.pub_margin.publish(self.out_margin)
         self.pub_diag.publish(self.out_diag)
 
-    def diagnostics(self, stamp, out: PlannerOutput, step_s: float) -> DiagnosticArray:
+    def diagnostics(self, stamp, result: GuidanceOutput, step_s: float) -> DiagnosticArray:
+        out = result.target
         report = diagnostics.PlannerDiagnostics(
             out.status,
             step_s,
@@ -125,6 +164,9 @@ class FepfPlannerNode(Node):
             out.m_a,
             out.m_r,
             self.rejected,
+            result.tracking_error_deg,
+            result.goal_error_deg,
+            result.speed_factor,
         )
         status = DiagnosticStatus(
             level=bytes([out.status.level]),
