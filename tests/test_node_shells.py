@@ -42,6 +42,7 @@ from attitude_core import (
 from attitude_core.control import PdGains, pd_torque
 from attitude_core.dynamics import RigidBody
 from attitude_core.fepf import FepfPlanner
+from attitude_core.guidance import Guidance
 from attitude_core.mrp import mrp_from_quat, quat_from_mrp
 from attitude_core.parameters import NodeParameterError
 from attitude_core.scenario import (
@@ -498,12 +499,13 @@ class PlannerProbe:
         self.ros = ros
         self.node = ros.add(FepfPlannerNode())
         self.pub = ros.publisher(c.ATTITUDE)
+        self.pub_rate = ros.publisher(c.ANGULAR_VELOCITY)
         self.mrp = ros.subscribe(c.TARGET_MRP)
         self.rate = ros.subscribe(c.TARGET_RATE)
         self.margin = ros.subscribe(c.KEEP_OUT_MARGIN)
         self.diag = ros.subscribe(c.DIAGNOSTICS)
         self.status = ros.subscribe(c.PLANNER_STATUS, history=True)
-        ros.wait_connected(self.node, [self.pub])
+        ros.wait_connected(self.node, [self.pub, self.pub_rate])
 
     def answers(self) -> int:
         return min(len(self.mrp), len(self.rate), len(self.margin), len(self.diag))
@@ -511,9 +513,11 @@ class PlannerProbe:
     def send(self, ns: int, quat) -> None:
         self.pub.publish(attitude_msg(ns, quat))
 
-    def send_and_wait(self, ns: int, quat) -> int:
-        """Publish an attitude and wait for the full answer; returns its index."""
+    def send_and_wait(self, ns: int, quat, omega=(0.0, 0.0, 0.0)) -> int:
+        """Publish a state (rate, then attitude) and wait for the full answer; returns
+        its index."""
         n = self.answers()
+        self.pub_rate.publish(vector_msg(ns, omega, c.BODY_FRAME))
         self.send(ns, quat)
         self.ros.spin_until(lambda: self.answers() >= n + 1, f"the planner's answer to {ns} ns")
         assert self.answers() == n + 1
@@ -528,13 +532,18 @@ class PlannerProbe:
 def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
     ros.init(CASE1)
     p = PlannerProbe(ros)
-    reference = FepfPlanner.from_scenario(scenario)
+    path = FepfPlanner.from_scenario(scenario)
     exact = scenario.keep_out()
-    # Measured attitudes: the start, then along the reference's own target path (the
-    # planner only uses the first one; the margin is of each measured attitude).
+    # Measured attitudes: the start, then along the FEPF's own target path; the node's
+    # answers are the core guidance's for those states (at rest: zero rate).
     n_steps = 12
-    expected = [reference.step() for _ in range(n_steps + 2)]
-    measured = [scenario.initial_mrp] + [o.sigma_t for o in expected[1:]]
+    fepf = [path.step() for _ in range(n_steps + 2)]
+    measured = [scenario.initial_mrp] + [o.sigma_t for o in fepf[1:]]
+    reference = Guidance.from_scenario(scenario)
+    expected = [
+        reference.update(k * DT_NS / 1e9, measured[k], np.zeros(3)).target
+        for k in range(n_steps + 2)
+    ]
 
     def check_answer(i: int, ns: int, k: int, sigma_measured) -> None:
         mrp, rate = p.mrp[i], p.rate[i]
@@ -931,7 +940,7 @@ def test_planner_rejects_an_attitude_in_another_frame(ros, scenario):
         n = p.node.rejected
         p.pub.publish(msg)
         ros.spin_until(lambda n=n: p.node.rejected == n + 1, f"rejection of frame {frame!r}")
-    assert p.answers() == 0 and p.node.planner is None  # not even started from it
+    assert p.answers() == 0 and p.node.guidance is None  # not even started from it
     p.send_and_wait(0, quat)
     assert p.node.rejected == 3
 
@@ -950,6 +959,8 @@ def test_best_effort_state_publisher_connects_through_qos_overrides(ros, scenari
         QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT),
     )
     ros.spin_until(lambda: driver.get_subscription_count() >= 1, "the best-effort match")
+    rate = ros.publisher(c.ANGULAR_VELOCITY)  # the other half of the state, reliable
+    ros.wait_connected(planner, [rate])
     answers = ros.subscribe(c.TARGET_MRP)
     ros.spin_until(lambda: planner.pub_mrp.get_subscription_count() >= 1, "the answer's match")
     quat = quat_from_mrp(scenario.initial_mrp)
@@ -958,6 +969,7 @@ def test_best_effort_state_publisher_connects_through_qos_overrides(ros, scenari
     def answered() -> bool:  # best effort may drop a sample: publish until one is answered
         nonlocal ns
         if not answers:
+            rate.publish(vector_msg(ns, (0.0, 0.0, 0.0), c.BODY_FRAME))
             driver.publish(attitude_msg(ns, quat))
             ns += DT_NS
         return bool(answers)
