@@ -118,3 +118,33 @@ def test_states_at_another_rate_give_the_same_slew(state_period_s, tmp_path, ros
     reference = summarize(run_closed_loop(load_scenario(scenario_path)))
     assert summary["t_reach_s"] == pytest.approx(reference["t_reach_s"], rel=0.03)
     assert summary["min_margin_deg"] == pytest.approx(reference["min_margin_deg"], abs=0.5)
+
+
+def test_a_plant_weaker_than_declared_never_gets_arrived_off_the_goal(tmp_path, ros_env):
+    """The simulator's wheels give a tenth of what the scenario declares (a test double
+    in a real process): the planner keeps tracking (or says stuck), never ``arrived``
+    with the body off the goal, and the run is reported as not reached."""
+    scenario_path = ROOT / "scenarios" / "case1_wheels.yaml"
+    sc = load_scenario(scenario_path)
+    out = tmp_path / "run"
+    run = subprocess.run(
+        [str(BIN / "attitude-run"), str(scenario_path), "--out", str(out), "--quiet",
+         "--param", "simulator:actuators.max_torque_nm:=[0.003, 0.003, 0.003]"],
+        env=ros_env(ros_environment()), capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    assert run.returncode == 1 and not summary["reached"], run.stdout + run.stderr
+    rec = run_from_bag(str(out / "bag")).run
+    applied = np.array(
+        [[m.msg.wrench.torque.x, m.msg.wrench.torque.y, m.msg.wrench.torque.z]
+         for m in read_bag(str(out / "bag"), [APPLIED_TORQUE])]
+    )  # fmt: skip
+    assert np.abs(applied).max() == pytest.approx(0.003)  # the weak plant did saturate
+    err = np.degrees(principal_angle(relative(rec.sigma_bn, sc.desired_mrp)))
+    arrived = rec.planner_status == PlannerStatus.ARRIVED.code
+    assert not np.any(arrived & (err > 2 * sc.arrival.attitude_tol_deg))
+    assert PlannerStatus.from_code(int(rec.planner_status[-1])) in (
+        PlannerStatus.TRACKING,
+        PlannerStatus.STUCK,
+    )
+    assert err[-1] > sc.arrival.attitude_tol_deg

@@ -47,9 +47,11 @@ class PlannerStatus(enum.StrEnum):
     TRACKING = ("tracking", 0, DiagnosticLevel.OK, False)
     """The target is moving towards the goal."""
     ARRIVED = ("arrived", 1, DiagnosticLevel.OK, True)
-    """The target is on the goal and stays there."""
+    """The target is on the goal and the measured body within the arrival tolerances
+    (``arrival.*``: attitude and rate)."""
     STUCK = ("stuck", 2, DiagnosticLevel.WARN, True)
-    """No progress towards the goal for ``planner.stuck_timeout_s``; the target is held."""
+    """Neither the target nor the body has come closer to the goal for
+    ``planner.stuck_timeout_s`` (longer with actuator limits); the target is held."""
     INFEASIBLE = ("infeasible", 3, DiagnosticLevel.ERROR, True)
     """The goal cannot be reached. Reserved for a feasibility check; the FEPF alone
     never reports it."""
