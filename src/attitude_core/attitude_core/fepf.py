@@ -269,11 +269,14 @@ class FepfPlanner:
         """The MRP rate held from the last proposal, 1/s."""
         return cast(Vec3, self._rate)
 
-    def hold_rate(self, rate: Vec3Like) -> None:
-        """Replace the rate held until the next proposal (a guidance layer's shaping);
-        :meth:`advance` checks the step it gives like any other."""
-        self._rate = cast(Vec3, tuple(float(x) for x in rate))
-        self._checked = None
+    def hold_rate(self, rate: Vec3Like, dt_ahead: float) -> Vec3:
+        """Replace the rate held until the next proposal (a guidance layer's shaping) and
+        return it made safe for a step of ``dt_ahead`` (the rate the target will move
+        with, so the one to publish); :meth:`advance` checks a longer step again."""
+        safe, _ = self._safe_step(cast(Vec3, tuple(float(x) for x in rate)), dt_ahead)
+        self._rate = safe
+        self._checked = (safe, dt_ahead)
+        return safe
 
     def advance(self, dt: float) -> None:
         """Move ``sigma_t`` along the held rate for ``dt`` s (the time to the next state).

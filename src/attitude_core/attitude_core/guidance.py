@@ -41,7 +41,13 @@ import numpy as np
 import numpy.typing as npt
 
 from .fepf import FepfPlanner, PlannerOutput
-from .mrp import Vec3Like, mrp_rate_single, principal_angle, relative
+from .mrp import (
+    Vec3Like,
+    mrp_rate_single,
+    omega_from_mrp_rate_single,
+    principal_angle,
+    relative,
+)
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
@@ -204,12 +210,15 @@ class Guidance:
             omega_t = self._time_scaled(out, dt if dt > 0.0 else nominal)
             factor = min(max(2.0 - e_track / self.hold_deg, 0.0), 1.0)
             omega_t = factor * omega_t
-            self.omega_prev = omega_t
             sigma_t = (float(out.sigma_t[0]), float(out.sigma_t[1]), float(out.sigma_t[2]))
             rate = mrp_rate_single(
                 sigma_t, (float(omega_t[0]), float(omega_t[1]), float(omega_t[2]))
             )
-            planner.hold_rate(rate)
+            safe = planner.hold_rate(rate, max(nominal, dt))
+            if safe != rate:  # the planner's step bound shortened it: publish what it flies
+                rate = safe
+                omega_t = omega_from_mrp_rate_single(sigma_t, safe)
+            self.omega_prev = omega_t
             out = replace(out, sigma_t_dot=np.array(rate), omega_t=omega_t)
         else:
             self.omega_prev = np.zeros(3)
@@ -243,6 +252,11 @@ class Guidance:
             size = float(np.linalg.norm(change))
             if size > alpha * dt:
                 omega = self.omega_prev + change * (alpha * dt / size)
+            # The braking caps are hard: when turning used up the acceleration bound,
+            # braking takes what it needs (from the controller's reserve).
+            speed = float(np.linalg.norm(omega))
+            if speed > cap:
+                omega *= cap / speed
         return omega
 
     def _judge(self, dt: float, e_goal_deg: float, rate_b: float) -> None:
