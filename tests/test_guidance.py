@@ -15,7 +15,7 @@ from attitude_core.closed_loop import run_closed_loop
 from attitude_core.control import PdGains, commanded_torque
 from attitude_core.dynamics import RigidBody
 from attitude_core.fepf import FepfPlanner
-from attitude_core.guidance import RATE_USE, Guidance, GuidanceLimits, time_bound_s
+from attitude_core.guidance import GYRO_SHARE, RATE_USE, Guidance, GuidanceLimits, time_bound_s
 from attitude_core.metrics import dense_min_margin_deg
 from attitude_core.mrp import principal_angle, relative
 from attitude_core.scenario import ActuatorLimits, load_scenario
@@ -100,9 +100,19 @@ def test_profile_acceleration_leaves_room_for_gyroscopic_torque():
     inertia = np.diag([8.0, 10.0, 12.0])
     lim = GuidanceLimits.from_actuators(inertia, (0.03, 0.02, 0.05), 0.035)
     assert lim.alpha_max_rad_s2 == pytest.approx(0.02 / 12.0)
-    # Inertia torque plus the worst gyroscopic torque at the rate bound fit the box.
-    gyro = (12.0 - 8.0) * 0.035**2
+    # Inertia torque plus the worst gyroscopic torque at the rate cap fit the bound.
+    gyro = 0.5 * (12.0 - 8.0) * lim.max_rate_rad_s**2
     assert 12.0 * lim.accel_rad_s2 + gyro < 0.02
+    # ... with the worst case found by sampling: |w x J w| <= (J_max - J_min) |w|^2 / 2.
+    rng = np.random.default_rng(5)
+    w = rng.normal(size=(20000, 3))
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
+    worst = np.linalg.norm(np.cross(w, w @ inertia), axis=1).max()
+    assert 0.99 * 0.5 * (12.0 - 8.0) < worst <= 0.5 * (12.0 - 8.0) + 1e-12
+    # A rate bound whose gyroscopic torque would eat the torque is lowered.
+    fast = GuidanceLimits.from_actuators(inertia, (0.03, 0.02, 0.05), 1.0)
+    assert fast.max_rate_rad_s < 1.0
+    assert 0.5 * (12.0 - 8.0) * fast.max_rate_rad_s**2 == pytest.approx(GYRO_SHARE * 0.02)
     spherical = GuidanceLimits.from_actuators(10.0 * np.eye(3), (0.03,) * 3, None)
     assert spherical.max_rate_rad_s is None and spherical.accel_rad_s2 < 0.003
     unlimited = GuidanceLimits.from_actuators(inertia, None, None)

@@ -9,21 +9,27 @@ the target for that instant:
    the real interval between the two stamps (:meth:`FepfPlanner.advance`, safety-checked),
    so states at 5, 10 or 20 Hz give the same target trajectory in time.
 2. **FEPF.** The paper's law (eqs. 6-10) proposes the rate at the new target.
-3. **Time scaling** (only with ``actuators`` limits). In body-rate space (eq. 12):
-   ``|omega_t| <=`` :data:`RATE_USE` ``max_rate_rad_s``; the rate vector changes by at most
-   ``alpha_profile dt``; the speed is capped by the braking curve ``sqrt(2 alpha theta)``
-   to the goal (``theta`` the principal angle left) and by the braking curve to the
-   closest buffered cone rim (in every direction: the closest point moves as the target
-   slides along a cone, so a cap on the approach component alone can demand a stop the
-   body cannot make; the isotropic cap falls no faster than ``alpha``). ``alpha_profile`` is a
-   fraction (:data:`TORQUE_USE`) of what the smallest torque bound gives about the
-   largest principal axis after the worst gyroscopic torque at the rate bound, so the
-   PD law keeps the rest for its corrections and the command stays inside the bound.
+3. **Time scaling** (only with ``actuators`` limits), in body-rate space (eq. 12):
+
+   * ``|omega_t| <=`` :data:`RATE_USE` ``max_rate_rad_s``, lowered when the gyroscopic
+     torque at the rate bound would take more than :data:`GYRO_SHARE` of the torque;
+   * the rate vector changes by at most ``alpha dt``, ``alpha`` a fraction
+     (:data:`TORQUE_USE`) of what the smallest torque bound gives about the largest
+     principal axis after the worst gyroscopic torque at the rate cap, so the PD law
+     keeps the rest for its corrections and its command stays inside the bound;
+   * the speed is capped, hard, by the sampled braking curve ``sqrt(2 alpha theta)`` to
+     the goal (``theta`` the principal angle left) and to the closest buffered cone rim
+     (``theta`` the exact margin less the buffer: a boresight moves by at most the
+     rotation angle). The cap is isotropic: a cap on the approach component alone can
+     demand a stop the body cannot make, as the closest point moves when the target
+     slides along a cone; the isotropic cap falls no faster than ``alpha``.
+   * The rate published is the one the target flies: the planner's step bound
+     (:meth:`FepfPlanner.hold_rate`) is applied to the shaped rate.
 4. **Tracking governor.** With ``e`` the principal angle of ``sigma_B/R``, the rate is
    scaled by ``clip(2 - e / e_hold, 0, 1)``: full speed up to ``e_hold``, held at
-   ``2 e_hold``. ``e_hold`` is half the planner's buffer, so while it holds the measured
-   body keeps at least half the buffer from every cone (the target keeps the whole
-   buffer, and a boresight moves by at most the rotation angle between two attitudes).
+   ``2 e_hold``. ``e_hold`` is half the planner's buffer: the target stops at the
+   buffered rim, and a boresight moves by at most the rotation angle between two
+   attitudes, so while ``e <= e_hold`` the measured body keeps half the buffer.
 5. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
    body is within the arrival tolerances (attitude and rate); it is withdrawn if the
    body leaves twice those tolerances. ``stuck`` when neither the target's nor the
@@ -55,6 +61,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "TORQUE_USE",
+    "GYRO_SHARE",
     "RATE_USE",
     "BRAKE_USE",
     "GuidanceLimits",
@@ -66,6 +73,10 @@ __all__ = [
 TORQUE_USE = 0.85
 """Fraction of the available acceleration the target profile uses; the PD law keeps the
 rest for its corrections (tracking error, disturbances)."""
+
+GYRO_SHARE = 0.25
+"""Largest share of the smallest torque bound the gyroscopic torque may take at the
+profile's rate cap (which is lowered below ``max_rate_rad_s`` when needed)."""
 
 RATE_USE = 0.95
 """Fraction of ``max_rate_rad_s`` the target's rate may reach, for the body's overshoot."""
@@ -105,13 +116,15 @@ class GuidanceLimits:
         j = np.linalg.eigvalsh(np.asarray(inertia_kgm2, dtype=float).reshape(3, 3))
         j_min, j_max = float(j[0]), float(j[-1])
         tau = float(min(max_torque_nm))
+        # |omega x J omega| <= (J_max - J_min) |omega|^2 / 2; the rate is capped so that
+        # the gyroscopic torque takes at most GYRO_SHARE of the smallest bound.
+        half_spread = 0.5 * (j_max - j_min)
         rate = max_rate_rad_s
-        spread = j_max - j_min
-        if rate is None and spread > 0.0:
-            # No rate bound declared: keep the gyroscopic torque under half the bound.
-            rate = math.sqrt(0.5 * tau / spread)
-        gyro = 0.0 if rate is None else spread * rate * rate
-        accel = TORQUE_USE * max(tau - gyro, 0.25 * tau) / j_max
+        if half_spread > 0.0:
+            gyro_rate = math.sqrt(GYRO_SHARE * tau / half_spread)
+            rate = gyro_rate if rate is None else min(rate, gyro_rate)
+        gyro = 0.0 if rate is None else half_spread * rate * rate
+        accel = TORQUE_USE * (tau - gyro) / j_max
         return cls(rate, accel, tau / j_max)
 
 
@@ -241,9 +254,11 @@ class Guidance:
         if alpha is not None:
             sigma_t = out.sigma_t
             theta_goal = float(principal_angle(relative(sigma_t, self.goal)))
-            # MRP distance to the buffered rim as an angle (|d theta| = 4 |d sigma| / (1 + s.s)).
-            d_obs = max(self.planner.last_obstacle_distance, 0.0)
-            theta_obs = 4.0 * d_obs / (1.0 + float(sigma_t @ sigma_t))
+            # Rotation to the buffered rim: a rotation by theta moves a boresight by at most
+            # theta, so the exact margin less the buffer bounds it from below.
+            geometry = self.planner.geometry
+            margin = geometry.min_margin_deg_single(sigma_t)
+            theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
             cap = min(cap, _braking_speed(alpha, min(theta_goal, BRAKE_USE * theta_obs), dt))
         if speed > cap:
             omega *= cap / speed
