@@ -188,6 +188,7 @@ def test_state_rate_does_not_change_the_slew(name):
     for p, run in runs.items():
         margin, _ = dense_min_margin_deg(sc.keep_out(), run["t"], run["sigma"], run["omega"])
         assert margin > 0.0, p
+        assert all(o.derating == 1.0 for o in run["out"])  # a plant as declared
         assert arrivals[p] == pytest.approx(arrivals[0.1], rel=0.03), arrivals
     # The target at common instants (every 2 s) agrees across the rates.
     ref = runs[0.1]
@@ -282,3 +283,20 @@ def test_limits_only_on_rate_keep_the_body_within_five_percent():
     summary = summarize(run)
     assert summary["reached"] and summary["min_margin_deg"] > 0.0
     assert summary["peak_rate_to_bound"] <= 1.05
+
+
+def test_a_plant_at_a_tenth_of_its_declared_torque_is_derated_and_stays_safe():
+    """Once the body falls behind, the profile's acceleration is derated: the tracking
+    error then stays within the governor's hold point and the body out of every cone."""
+    sc = load_scenario(SCENARIOS / "case1_wheels.yaml")
+    run = fly(sc, sc.dt_s, plant_bound_nm=(0.003, 0.003, 0.003), sim_time_s=300.0)
+    derating = np.array([o.derating for o in run["out"]])
+    assert derating[0] == 1.0 and derating[-1] < 0.2
+    assert np.all(np.diff(derating) <= 0.0)  # only ever lowered
+    errors = np.array([o.tracking_error_deg for o in run["out"]])
+    assert errors.max() <= 2.0 * Guidance.from_scenario(sc).hold_deg
+    margin, _ = dense_min_margin_deg(sc.keep_out(), run["t"], run["sigma"], run["omega"])
+    assert margin > 0.0
+    err = goal_error_deg(sc, run["sigma"])
+    assert err[-1] < err[0] - 90.0  # still flying the slew, not stuck
+    assert run["status"][-1] in (PlannerStatus.TRACKING, PlannerStatus.ARRIVED)

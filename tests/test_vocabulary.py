@@ -122,6 +122,7 @@ def test_diagnostics_values_are_in_keys_order():
         "tracking_error_deg",
         "goal_error_deg",
         "speed_factor",
+        "accel_derating",
     )
     assert all(isinstance(v, str) for _, v in values)
     assert dict(values)["status"] == "tracking"

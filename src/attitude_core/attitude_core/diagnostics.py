@@ -28,6 +28,7 @@ __all__ = [
     "TRACKING_ERROR_DEG",
     "GOAL_ERROR_DEG",
     "SPEED_FACTOR",
+    "ACCEL_DERATING",
     "KEYS",
     "PlannerDiagnostics",
 ]
@@ -45,6 +46,7 @@ REJECTED_MESSAGES = "rejected_messages"  # refused input messages so far
 TRACKING_ERROR_DEG = "tracking_error_deg"  # principal angle body to target, deg
 GOAL_ERROR_DEG = "goal_error_deg"  # principal angle body to goal, deg
 SPEED_FACTOR = "speed_factor"  # the tracking governor's factor (1 full speed, 0 held)
+ACCEL_DERATING = "accel_derating"  # share of the declared acceleration used (1: all)
 KEYS = (
     STATUS,
     STEP_TIME_US,
@@ -56,6 +58,7 @@ KEYS = (
     TRACKING_ERROR_DEG,
     GOAL_ERROR_DEG,
     SPEED_FACTOR,
+    ACCEL_DERATING,
 )
 
 
@@ -73,6 +76,7 @@ class PlannerDiagnostics:
     tracking_error_deg: float = float("nan")
     goal_error_deg: float = float("nan")
     speed_factor: float = float("nan")
+    accel_derating: float = float("nan")
 
     def values(self) -> list[tuple[str, str]]:
         """The key/value pairs, in :data:`KEYS` order."""
@@ -87,6 +91,7 @@ class PlannerDiagnostics:
             (TRACKING_ERROR_DEG, repr(float(self.tracking_error_deg))),
             (GOAL_ERROR_DEG, repr(float(self.goal_error_deg))),
             (SPEED_FACTOR, repr(float(self.speed_factor))),
+            (ACCEL_DERATING, repr(float(self.accel_derating))),
         ]
 
     @classmethod
@@ -112,4 +117,5 @@ class PlannerDiagnostics:
             tracking_error_deg=number(TRACKING_ERROR_DEG),
             goal_error_deg=number(GOAL_ERROR_DEG),
             speed_factor=number(SPEED_FACTOR),
+            accel_derating=number(ACCEL_DERATING),
         )

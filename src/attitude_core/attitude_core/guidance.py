@@ -29,7 +29,10 @@ the target for that instant:
    scaled by ``clip(2 - e / e_hold, 0, 1)``: full speed up to ``e_hold``, held at
    ``2 e_hold``. ``e_hold`` is half the planner's buffer: the target stops at the
    buffered rim, and a boresight moves by at most the rotation angle between two
-   attitudes, so while ``e <= e_hold`` the measured body keeps half the buffer.
+   attitudes, so while ``e <= e_hold`` the measured body keeps half the buffer. A body
+   that falls behind a profile within the declared limits shows a plant weaker than
+   declared: the profile's acceleration is then halved (at most every 5 s, down to
+   1/64; :attr:`Guidance.derating`).
 5. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
    body is within the arrival tolerances (attitude and rate); it is withdrawn if the
    body leaves twice those tolerances. ``stuck`` when neither the target's nor the
@@ -89,6 +92,8 @@ BRAKE_USE = 1.0
 _PROGRESS_RAD = 1e-3  # body, principal angle
 _PROGRESS_MRP = 2.5e-4  # target, MRP distance (about the same angle)
 _MIN_HOLD_DEG = 0.1
+_MIN_DERATING = 1.0 / 64.0
+_DERATE_EVERY_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -161,6 +166,7 @@ class GuidanceOutput:
     tracking_error_deg: float  # principal angle of sigma_B/R
     goal_error_deg: float  # principal angle of sigma_B/D
     speed_factor: float  # the governor's factor, 1 = full speed, 0 = held
+    derating: float  # share of the declared acceleration the profile uses (1: all)
 
 
 class Guidance:
@@ -179,11 +185,9 @@ class Guidance:
         self.attitude_tol_deg = attitude_tol_deg
         self.rate_tol_rad_s = rate_tol_rad_s
         self.hold_deg = max(0.5 * planner.geometry.inflation_deg, _MIN_HOLD_DEG)
+        self.derating = 1.0  # share of the declared acceleration the plant has shown
+        self._derated_at = -math.inf
         self.goal = np.asarray(planner.goal, dtype=float)
-        # Slow actuators need longer to turn round: add the time to stop from the rate bound.
-        self.stuck_timeout_s = planner.cfg.stuck_timeout_s
-        if limits.accel_rad_s2 is not None and limits.max_rate_rad_s is not None:
-            self.stuck_timeout_s += limits.max_rate_rad_s / limits.accel_rad_s2
         self.t_prev: float | None = None
         self.omega_prev = np.zeros(3)
         self.status = PlannerStatus.TRACKING
@@ -222,6 +226,7 @@ class Guidance:
         if planner.status == PlannerStatus.TRACKING:
             omega_t = self._time_scaled(out, dt if dt > 0.0 else nominal)
             factor = min(max(2.0 - e_track / self.hold_deg, 0.0), 1.0)
+            self._derate(factor, float(t_s))
             omega_t = factor * omega_t
             sigma_t = (float(out.sigma_t[0]), float(out.sigma_t[1]), float(out.sigma_t[2]))
             rate = mrp_rate_single(
@@ -238,7 +243,9 @@ class Guidance:
             if planner.status == PlannerStatus.STUCK:
                 factor = 0.0  # held
         self._judge(dt, e_goal, float(np.linalg.norm(np.asarray(omega_b, dtype=float))))
-        return GuidanceOutput(replace(out, status=self.status), e_track, e_goal, factor)
+        return GuidanceOutput(
+            replace(out, status=self.status), e_track, e_goal, factor, self.derating
+        )
 
     # ------------------------------------------------------------------------------
 
@@ -250,7 +257,7 @@ class Guidance:
             return omega
         speed = float(np.linalg.norm(omega))
         cap = math.inf if lim.max_rate_rad_s is None else RATE_USE * lim.max_rate_rad_s
-        alpha = lim.accel_rad_s2
+        alpha = None if lim.accel_rad_s2 is None else lim.accel_rad_s2 * self.derating
         if alpha is not None:
             sigma_t = out.sigma_t
             theta_goal = float(principal_angle(relative(sigma_t, self.goal)))
@@ -273,6 +280,29 @@ class Guidance:
             if speed > cap:
                 omega *= cap / speed
         return omega
+
+    @property
+    def stuck_timeout_s(self) -> float:
+        """``planner.stuck_timeout_s`` plus, with limits, the time to stop from the rate
+        cap at the profile's derated acceleration (slow actuators turn round slowly),
+        counting the derating down to a quarter only, so that a dead plant is still
+        reported."""
+        lim = self.limits
+        timeout = self.planner.cfg.stuck_timeout_s
+        if lim.accel_rad_s2 is not None and lim.max_rate_rad_s is not None:
+            timeout += lim.max_rate_rad_s / (lim.accel_rad_s2 * max(self.derating, 0.25))
+        return timeout
+
+    def _derate(self, factor: float, t_s: float) -> None:
+        """A plant that falls behind a profile within its declared limits is weaker than
+        declared: halve the profile's acceleration (at most once per settling time),
+        down to :data:`_MIN_DERATING`."""
+        if factor >= 1.0 or self.limits.accel_rad_s2 is None:
+            return
+        if t_s - self._derated_at < _DERATE_EVERY_S:
+            return
+        self.derating = max(0.5 * self.derating, _MIN_DERATING)
+        self._derated_at = t_s
 
     def _judge(self, dt: float, e_goal_deg: float, rate_b: float) -> None:
         """Step 5 of the module docstring."""

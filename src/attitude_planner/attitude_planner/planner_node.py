@@ -62,6 +62,7 @@ class FepfPlannerNode(Node):
         self.pending: dict[int, list] = {}  # stamp -> [sigma_BN, omega_B] while pairing
         self.rejected = 0
         self.status: PlannerStatus | None = None
+        self.derating = 1.0
         pub = self.create_publisher
         self.pub_mrp = pub(Vector3Stamped, c.TARGET_MRP, c.qos(c.topic(c.TARGET_MRP)))
         self.pub_rate = pub(Vector3Stamped, c.TARGET_RATE, c.qos(c.topic(c.TARGET_RATE)))
@@ -143,6 +144,13 @@ class FepfPlannerNode(Node):
         self.out_margin.data = float(self.exact.min_margin_deg_single(sigma_bn))
         self.out_diag = self.diagnostics(stamp_msg, result, step_s)
         self.publish()
+        if result.derating != self.derating:
+            self.derating = result.derating
+            self.get_logger().warning(
+                f"the body fell behind a profile within the declared actuator limits: "
+                f"the plant is weaker than the scenario says; profile acceleration now "
+                f"{result.derating:g} of the declared at stamp {stamp / 1e9:.3f} s"
+            )
         if out.status != self.status:
             self.status = out.status
             self.pub_status.publish(String(data=out.status.value))
@@ -167,6 +175,7 @@ class FepfPlannerNode(Node):
             result.tracking_error_deg,
             result.goal_error_deg,
             result.speed_factor,
+            result.derating,
         )
         status = DiagnosticStatus(
             level=bytes([out.status.level]),

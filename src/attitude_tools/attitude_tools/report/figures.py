@@ -461,9 +461,11 @@ def _history(
     norm=None,
     target=None,
     target_label: str = "",
+    bounds=None,
 ):
     """Components (and a norm-like panel): one panel in single mode, one per component
-    when comparing runs."""
+    when comparing runs. ``bounds(run)`` gives ``(per-component bound or None, norm
+    bound or None)``, drawn as dotted lines (the actuator limits)."""
     unit_txt = f" ({unit})" if unit else ""
     if not ctx.compare:
         fig, (ax, axn) = plt.subplots(
@@ -494,6 +496,15 @@ def _history(
         values = norm(run) if norm is not None else np.linalg.norm(data, axis=1)
         axn.plot(run.run.t, values, color="black", linewidth=1.5)
         axn.set_ylabel(norm_label)
+        per_axis, on_norm = bounds(run) if bounds is not None else (None, None)
+        if per_axis is not None:
+            for i in range(3):
+                for sign in (-1.0, 1.0):
+                    ax.axhline(sign * per_axis[i], color=COMPONENT_COLORS[i], linestyle=":")
+        if on_norm is not None:
+            axn.axhline(on_norm, color="black", linestyle=":")
+        if per_axis is not None or on_norm is not None:
+            handles.append(Line2D([], [], color="0.3", linestyle=":", label="actuator limit"))
         handles += _arrival_lines(ctx, (ax, axn))
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         axn.set_xlabel("time (s)")
@@ -566,11 +577,20 @@ def fig_history_rate(ctx: _Context):
         "rad/s",
         lambda r: r.run.omega_b,
         r"$|\omega|$ (rad/s)",
+        bounds=lambda r: (None, r.scenario.actuators.max_rate_rad_s),
     )
 
 
 def fig_history_torque(ctx: _Context):
-    return _history(ctx, "control torque", r"$u$", "N m", lambda r: r.run.torque_b, r"$|u|$ (N m)")
+    return _history(
+        ctx,
+        "control torque",
+        r"$u$",
+        "N m",
+        lambda r: r.run.torque_b,
+        r"$|u|$ (N m)",
+        bounds=lambda r: (r.scenario.actuators.max_torque_nm, None),
+    )
 
 
 # --- margin -------------------------------------------------------------------------
