@@ -1,10 +1,12 @@
-"""Benchmark of the ROS-free core: planner step time and offline Case 1 wall time.
+"""Benchmark of the ROS-free core: planner step time, guidance update time and offline
+Case 1 wall time.
 
 Run: .venv/bin/python bench/core_bench.py [--repeats N]
-Prints figures and their ratio to the aims (planner step median <= 50 us,
-offline Case 1 <= 0.5 s wall, measured in a warm process as a batch worker runs it),
-and the cold command-line run (interpreter start, imports and the one-off FIS table
-build included). Not a test: timings depend on the machine.
+Prints figures and their ratio to the aims (planner step median <= 50 us, offline
+Case 1 <= 0.5 s wall, measured in a warm process as a batch worker runs it), the
+guidance update that the planner node calls around each step (no aim of its own), and
+the cold command-line run (interpreter start, imports and the one-off FIS table build
+included). Not a test: timings depend on the machine.
 """
 
 import argparse
@@ -19,6 +21,7 @@ import numpy as np
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.fepf import FepfPlanner
+from attitude_core.guidance import Guidance
 from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
 
@@ -40,6 +43,23 @@ def planner_step_times(scenario, repeats):
     return np.array(samples) / 1e3
 
 
+def guidance_update_times(scenario, repeats):
+    """The planner node's call: one guidance update per state, the body on the FEPF's
+    own target path (so the governor never holds)."""
+    samples = []
+    for _ in range(repeats):
+        path = FepfPlanner.from_scenario(scenario)
+        guidance = Guidance.from_scenario(scenario)
+        for k in range(scenario.n_steps):
+            sigma = path.step().sigma_t
+            t0 = time.perf_counter_ns()
+            out = guidance.update(k * scenario.dt_s, sigma, np.zeros(3))
+            samples.append(time.perf_counter_ns() - t0)
+            if out.target.status != PlannerStatus.TRACKING:
+                break
+    return np.array(samples) / 1e3
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeats", type=int, default=5)
@@ -54,6 +74,11 @@ def main():
             f"  {name:12s} n={len(us):5d}  median {med:6.1f} us  p99 {p99:6.1f} us  "
             f"median/aim {med / AIM_STEP_US:.2f}"
         )
+    print("guidance update (the planner node's call: FEPF, time scaling, governor)")
+    for name in ("case1", "case1_wheels"):
+        us = guidance_update_times(load_scenario(f"{ROOT}/scenarios/{name}.yaml"), args.repeats)
+        med, p99 = np.median(us), np.percentile(us, 99)
+        print(f"  {name:12s} n={len(us):5d}  median {med:6.1f} us  p99 {p99:6.1f} us")
     walls = []
     for _ in range(args.repeats):
         t0 = time.perf_counter()

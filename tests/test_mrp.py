@@ -101,3 +101,18 @@ def test_vectorised_forms_match_single(stack):
     np.testing.assert_allclose(
         mrp.dcm_from_mrp(stack), np.array([mrp.dcm_from_mrp_single(s) for s in stack]), atol=1e-12
     )
+
+
+def test_angle_between_single_is_the_principal_angle_of_the_relative_mrp():
+    rng = np.random.default_rng(17)
+    a = Rotation.random(500, random_state=rng).as_mrp()
+    b = Rotation.random(500, random_state=rng).as_mrp()
+    b[:50] = a[:50] + 1e-9 * rng.normal(size=(50, 3))  # tiny angles
+    b[50:60] = mrp.shadow(a[50:60])  # the same attitude in the shadow set
+    expected = mrp.principal_angle(mrp.relative(a, b))
+    got = np.array([mrp.angle_between_single(x, y) for x, y in zip(a, b, strict=True)])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got[50:60], 0.0, atol=1e-12)
+    # Against SciPy: the magnitude of the relative rotation.
+    ref = (Rotation.from_mrp(a) * Rotation.from_mrp(b).inv()).magnitude()
+    np.testing.assert_allclose(got, ref, rtol=0, atol=1e-9)

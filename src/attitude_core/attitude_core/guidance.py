@@ -50,13 +50,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .fepf import FepfPlanner, PlannerOutput
-from .mrp import (
-    Vec3Like,
-    mrp_rate_single,
-    omega_from_mrp_rate_single,
-    principal_angle,
-    relative,
-)
+from .mrp import Vec3Like, angle_between_single, mrp_rate_single, omega_from_mrp_rate_single
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
@@ -219,9 +213,8 @@ class Guidance:
         self.t_prev = float(t_s)
         planner.advance(dt)
         out = planner.propose(dt if dt > 0.0 else nominal, max(nominal, dt))
-        sigma_b = np.asarray(sigma_bn, dtype=float)
-        e_track = math.degrees(float(principal_angle(relative(sigma_b, out.sigma_t))))
-        e_goal = math.degrees(float(principal_angle(relative(sigma_b, self.goal))))
+        e_track = math.degrees(angle_between_single(sigma_bn, out.sigma_t))
+        e_goal = math.degrees(angle_between_single(sigma_bn, self.goal))
         factor = 1.0
         if planner.status == PlannerStatus.TRACKING:
             omega_t = self._time_scaled(out, dt if dt > 0.0 else nominal)
@@ -242,7 +235,7 @@ class Guidance:
             self.omega_prev = np.zeros(3)
             if planner.status == PlannerStatus.STUCK:
                 factor = 0.0  # held
-        self._judge(dt, e_goal, float(np.linalg.norm(np.asarray(omega_b, dtype=float))))
+        self._judge(dt, e_goal, math.hypot(float(omega_b[0]), float(omega_b[1]), float(omega_b[2])))
         return GuidanceOutput(
             replace(out, status=self.status), e_track, e_goal, factor, self.derating
         )
@@ -255,12 +248,12 @@ class Guidance:
         omega = np.array(out.omega_t, dtype=float)
         if lim.max_rate_rad_s is None and lim.accel_rad_s2 is None:
             return omega
-        speed = float(np.linalg.norm(omega))
+        speed = math.hypot(*omega)
         cap = math.inf if lim.max_rate_rad_s is None else RATE_USE * lim.max_rate_rad_s
         alpha = None if lim.accel_rad_s2 is None else lim.accel_rad_s2 * self.derating
         if alpha is not None:
             sigma_t = out.sigma_t
-            theta_goal = float(principal_angle(relative(sigma_t, self.goal)))
+            theta_goal = angle_between_single(sigma_t, self.goal)
             # Rotation to the buffered rim: a rotation by theta moves a boresight by at most
             # theta, so the exact margin less the buffer bounds it from below.
             geometry = self.planner.geometry
@@ -271,12 +264,12 @@ class Guidance:
             omega *= cap / speed
         if alpha is not None:
             change = omega - self.omega_prev
-            size = float(np.linalg.norm(change))
+            size = math.hypot(*change)
             if size > alpha * dt:
                 omega = self.omega_prev + change * (alpha * dt / size)
             # The braking caps are hard: when turning used up the acceleration bound,
             # braking takes what it needs (from the controller's reserve).
-            speed = float(np.linalg.norm(omega))
+            speed = math.hypot(*omega)
             if speed > cap:
                 omega *= cap / speed
         return omega

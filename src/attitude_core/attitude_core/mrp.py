@@ -15,6 +15,7 @@ Every function accepts a single 3-vector or a stack ``(..., 3)``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -34,6 +35,7 @@ __all__ = [
     "omega_from_mrp_rate_single",
     "compose",
     "relative",
+    "angle_between_single",
     "quat_from_mrp",
     "mrp_from_quat",
     "principal_angle",
@@ -172,6 +174,29 @@ def omega_from_mrp_rate_single(sigma: Vec3Like, sigma_dot: Vec3Like) -> _Floats:
             k * (a * d3 - 2.0 * (s1 * d2 - s2 * d1) + 2.0 * s3 * sd),
         ]
     )
+
+
+def angle_between_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
+    """Principal angle (rad, ``[0, pi]``) of the rotation between two attitudes, in plain
+    floats (hot path; equals ``principal_angle(relative(sigma_a, sigma_b))``).
+
+    With unit quaternions ``a``, ``b`` of the two MRPs, the relative rotation has
+    ``w = a . b`` and vector part ``v = b0 a_v - a0 b_v - a_v x b_v``:
+    ``theta = 2 atan2(|v|, |w|)``, accurate at small angles too.
+    """
+    a1, a2, a3 = float(sigma_a[0]), float(sigma_a[1]), float(sigma_a[2])
+    b1, b2, b3 = float(sigma_b[0]), float(sigma_b[1]), float(sigma_b[2])
+    sa = a1 * a1 + a2 * a2 + a3 * a3
+    sb = b1 * b1 + b2 * b2 + b3 * b3
+    # Unscaled quaternions (1 - s.s, 2 s); the common positive scale cancels in atan2.
+    a0, b0 = 1.0 - sa, 1.0 - sb
+    a1, a2, a3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
+    b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
+    w = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
+    v1 = b0 * a1 - a0 * b1 - (a2 * b3 - a3 * b2)
+    v2 = b0 * a2 - a0 * b2 - (a3 * b1 - a1 * b3)
+    v3 = b0 * a3 - a0 * b3 - (a1 * b2 - a2 * b1)
+    return 2.0 * math.atan2(math.sqrt(v1 * v1 + v2 * v2 + v3 * v3), abs(w))
 
 
 def compose(sigma_outer: npt.ArrayLike, sigma_inner: npt.ArrayLike) -> _Floats:
