@@ -1,0 +1,287 @@
+"""``attitude-campaign SPEC.yaml --out DIR [--workers N | --scheduler ADDR] [--resume]``.
+
+Runs every ``(run, variant)`` of a SPEC (:mod:`.spec`) as a Dask task (:func:`.task.run_task`,
+the offline closed loop) on a ``LocalCluster`` of ``--workers`` processes (default: one
+per core) or on a running cluster (``--scheduler tcp://HOST:PORT``, started with
+``dask scheduler`` and ``dask worker``). Results are written as they complete
+(``DIR/parts/``, :mod:`.store`); a worker that dies has its tasks retried elsewhere.
+SIGINT (or SIGTERM) stops the campaign with what completed on disk; ``--resume``
+continues it. At the end: ``DIR/runs.parquet``, ``DIR/summary.json``,
+``DIR/report.html`` and ``DIR/reproducers/run_<i>_<variant>.yaml`` for the worst runs.
+
+Exit codes: 0 complete, 1 a task failed, 2 bad input (SPEC, ``--out``, scheduler),
+130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import math
+import os
+import shutil
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from .progress import Progress
+from .spec import CampaignSpec, SpecError, load_spec
+from .stats import summarize_campaign, worst_runs
+from .store import PartWriter, read_parts, write_table
+from .task import TIMING_COLUMNS, reproducer, run_task
+
+__all__ = ["main", "run_campaign", "CONNECT_TIMEOUT_S", "WORST"]
+
+CONNECT_TIMEOUT_S = 8.0  # a scheduler that does not answer: an error within 10 s
+WORST = 20
+FLUSH_S = 1.0  # completed rows reach disk within this wall time
+SPEC_COPY = "spec.yaml"
+
+
+class CampaignError(Exception):
+    """Bad input found after the SPEC was read (exit 2)."""
+
+
+def _json_ready(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_ready(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_ready(v) for v in value]
+    return value
+
+
+def _connect(workers: int | None, scheduler: str | None):
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        try:
+            return Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s"), f"scheduler {scheduler}"
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise CampaignError(
+                f"--scheduler {scheduler}: no Dask scheduler answered within "
+                f"{CONNECT_TIMEOUT_S:g} s ({exc})"
+            ) from exc
+    n = workers or os.cpu_count() or 1
+    cluster = LocalCluster(
+        n_workers=n,
+        threads_per_worker=1,
+        processes=True,
+        dashboard_address=None,
+        silence_logs=logging.ERROR,
+    )
+    return Client(cluster), f"LocalCluster of {n} worker process(es)"
+
+
+def _prepare_out(spec: CampaignSpec, out: Path, resume: bool) -> None:
+    text = Path(spec.source).read_text(encoding="utf-8")
+    if out.exists() and not out.is_dir():
+        raise CampaignError(f"--out {out}: exists and is not a directory")
+    if out.exists() and any(out.iterdir()):
+        copy = out / SPEC_COPY
+        if not resume:
+            what = "a campaign" if copy.exists() else "not a campaign"
+            raise CampaignError(
+                f"--out {out}: exists ({what}); give --resume to continue a campaign, "
+                "or another directory"
+            )
+        if not copy.exists():
+            raise CampaignError(f"--out {out}: --resume, but it holds no campaign")
+        if copy.read_text(encoding="utf-8") != text:
+            raise CampaignError(
+                f"--out {out}: --resume with another SPEC than the campaign's ({copy})"
+            )
+
+
+def _finish(spec: CampaignSpec, out: Path, info: dict[str, Any], log) -> dict[str, Any]:
+    frame = read_parts(out)
+    write_table(frame, out / "runs.parquet")
+    summary = summarize_campaign(frame) | {"campaign": info}
+    worst = worst_runs(frame, WORST)
+    repro = out / "reproducers"
+    tmp = out / ".reproducers.tmp"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir()
+    for _, row in worst.iterrows():
+        i, variant = int(row["run"]), str(row["variant"])
+        (tmp / f"run_{i}_{variant}.yaml").write_text(reproducer(spec, i, variant))
+    shutil.rmtree(repro, ignore_errors=True)
+    os.replace(tmp, repro)
+    summary["worst_runs"] = [
+        {k: row[k] for k in ("run", "variant", "outcome", "min_margin_deg", "rotation_ratio")}
+        for _, row in worst.iterrows()
+    ]
+    summary = _json_ready(summary)
+    with open(out / "summary.json.tmp", "w") as f:
+        json.dump(summary, f, indent=2, default=lambda v: v.item())
+        f.write("\n")
+    os.replace(out / "summary.json.tmp", out / "summary.json")
+    from .report import write_report
+
+    write_report(out / "report.html.tmp", frame, summary, worst, info)
+    os.replace(out / "report.html.tmp", out / "report.html")
+    table, report = out / "runs.parquet", out / "report.html"
+    log(f"attitude-campaign: {len(frame)} rows in {table}; report {report}")
+    for variant, v in summary["variants"].items():
+        counts = ", ".join(f"{k} {o['count']}" for k, o in v["outcomes"].items() if o["count"])
+        log(f"  {variant}: {counts}")
+    return summary
+
+
+def run_campaign(
+    spec: CampaignSpec,
+    out: Path,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    resume: bool = False,
+    log=print,
+    progress_stream=sys.stderr,
+) -> int:
+    """The campaign (see the module docstring); returns the exit code."""
+    _prepare_out(spec, out, resume)
+    client, engine = _connect(workers, scheduler)
+    t0 = time.monotonic()
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        if not (out / SPEC_COPY).exists():
+            shutil.copyfile(spec.source, out / SPEC_COPY)
+        done = {(int(r), str(v)) for r, v in _done_pairs(out)}
+        todo = [t for t in spec.tasks if t not in done]
+        log(
+            f"attitude-campaign: {spec.name}: {len(spec.tasks)} tasks, {len(done)} done, "
+            f"{len(todo)} to run on {engine}"
+        )
+        writer = PartWriter(out)
+        progress = Progress(len(spec.tasks), len(done), progress_stream)
+        interrupted = _run_tasks(client, spec, todo, writer, progress)
+        progress.close()
+    finally:
+        _close(client)
+    if interrupted:
+        left = len(spec.tasks) - len(_done_pairs(out))
+        log(f"attitude-campaign: interrupted; {left} task(s) left: --resume continues")
+        return 130
+    info = {
+        "name": spec.name,
+        "spec": spec.source,
+        "seed": spec.seed,
+        "runs": spec.runs,
+        "variants": list(spec.planner_variants),
+        "base_scenario": spec.base_scenario,
+        "tasks": len(spec.tasks),
+        "engine": engine,
+        "wall_time_s": time.monotonic() - t0,
+        "resumed": bool(done),
+        "timing_columns": list(TIMING_COLUMNS),
+    }
+    _finish(spec, out, info, log)
+    return 0
+
+
+def _done_pairs(out: Path) -> list[tuple[int, str]]:
+    frame = read_parts(out)
+    if frame.empty:
+        return []
+    return list(zip(frame["run"].astype(int), frame["variant"].astype(str), strict=True))
+
+
+def _run_tasks(client, spec: CampaignSpec, todo, writer: PartWriter, progress: Progress) -> bool:
+    """Run ``todo``; True when interrupted. Rows reach disk within :data:`FLUSH_S`."""
+    from distributed import as_completed
+
+    if not todo:
+        return False
+    keys = [f"attitude-campaign-{spec.name}-{spec.seed}-{i}-{v}" for i, v in todo]
+    futures = client.map(
+        run_task,
+        [spec] * len(todo),
+        [i for i, _ in todo],
+        [v for _, v in todo],
+        key=keys,
+        pure=False,
+        retries=2,
+    )
+    buffer: list[dict[str, Any]] = []
+    flushed = time.monotonic()
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)
+    try:
+        for future in as_completed(futures):
+            row = future.result()  # a task that failed its retries raises here
+            buffer.append(row)
+            progress.update(row["outcome"])
+            if time.monotonic() - flushed >= FLUSH_S:
+                writer.write(buffer)
+                buffer, flushed = [], time.monotonic()
+    except KeyboardInterrupt:
+        writer.write(buffer)
+        client.cancel(futures)
+        return True
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    writer.write(buffer)
+    return False
+
+
+def _raise_interrupt(signum, frame) -> None:
+    raise KeyboardInterrupt
+
+
+def _close(client) -> None:
+    cluster = getattr(client, "cluster", None)
+    try:
+        client.close(timeout=10)
+    finally:
+        if cluster is not None:
+            cluster.close(timeout=10)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(
+        prog="attitude-campaign",
+        description="Monte Carlo campaign of dispersed slews on Dask (README: campaigns).",
+    )
+    parser.add_argument("spec", help="campaign SPEC file (YAML)")
+    parser.add_argument("--out", required=True, help="campaign directory to create")
+    engine = parser.add_mutually_exclusive_group()
+    engine.add_argument(
+        "--workers", type=int, default=None,
+        help="LocalCluster worker processes (default: the number of cores)",
+    )  # fmt: skip
+    engine.add_argument(
+        "--scheduler", default=None, metavar="tcp://HOST:PORT",
+        help="a running Dask scheduler (dask scheduler / dask worker) instead",
+    )  # fmt: skip
+    parser.add_argument("--resume", action="store_true", help="continue a campaign in --out")
+    parser.add_argument("--quiet", action="store_true", help="print nothing but errors")
+    args = parser.parse_args(argv)
+    if args.workers is not None and args.workers < 1:
+        parser.error(f"--workers: must be >= 1, got {args.workers}")
+
+    def log(msg: str) -> None:
+        if not args.quiet:
+            print(msg, flush=True)
+
+    try:
+        spec = load_spec(args.spec)
+        return run_campaign(
+            spec,
+            Path(args.out).resolve(),
+            workers=args.workers,
+            scheduler=args.scheduler,
+            resume=args.resume,
+            log=log,
+        )
+    except (SpecError, CampaignError) as exc:
+        print(f"attitude-campaign: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("attitude-campaign: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,230 @@
+"""The campaign SPEC file: parsing and validation, every error naming its key.
+
+A SPEC is YAML with one top-level ``campaign`` mapping (see the README, "Monte Carlo
+campaigns")::
+
+    campaign:
+      name: random_slews
+      runs: 1000
+      seed: 7
+      base_scenario: ../scenarios/case1.yaml   # relative to the SPEC
+      sim_time_s: 300.0                        # optional
+      dispersions:
+        attitudes: uniform
+        min_end_margin_deg: 3.0
+        instruments: {count: [1, 3], half_angle_deg: [10.0, 35.0]}
+        bright_objects: {count: [2, 6]}
+        inertia_scale: [0.9, 1.1]              # optional
+        initial_rate_rad_s: 0.0                # optional
+        actuators: {max_torque_nm: [0.01, 0.1], max_rate_rad_s: [0.02, 0.1]}  # optional
+      planner_variants: [improved, paper]
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from attitude_core.scenario import ScenarioError, load_scenario
+from attitude_core.yamlio import load_strict
+
+__all__ = ["SpecError", "Range", "CampaignSpec", "load_spec", "VARIANTS", "MAX_REDRAWS"]
+
+VARIANTS = ("improved", "paper")
+MAX_REDRAWS = 10_000  # per run: a dispersion that can never give a valid draw fails
+
+
+class SpecError(ValueError):
+    """A SPEC problem: ``key`` is the dotted key (``campaign.dispersions.instruments``)."""
+
+    def __init__(self, source: str, key: str | None, reason: str) -> None:
+        self.source, self.key, self.reason = source, key, reason
+        where = f"'{key}'" if key else "the file"
+        super().__init__(f"{source}: {where}: {reason}")
+
+
+@dataclass(frozen=True)
+class Range:
+    """A closed interval ``[lo, hi]`` to draw from uniformly."""
+
+    lo: float
+    hi: float
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    name: str
+    runs: int
+    seed: int
+    base_scenario: str  # absolute path
+    sim_time_s: float | None
+    min_end_margin_deg: float
+    instrument_count: tuple[int, int]
+    half_angle_deg: Range
+    object_count: tuple[int, int]
+    inertia_scale: Range | None
+    initial_rate_std_rad_s: float
+    max_torque_nm: Range | None
+    max_rate_rad_s: Range | None
+    planner_variants: tuple[str, ...]
+    source: str
+
+    @property
+    def tasks(self) -> list[tuple[int, str]]:
+        """Every ``(run, variant)`` of the campaign, in order."""
+        return [(i, v) for i in range(self.runs) for v in self.planner_variants]
+
+
+_TOP = {"name", "runs", "seed", "base_scenario", "sim_time_s", "dispersions", "planner_variants"}
+_DISPERSIONS = {
+    "attitudes",
+    "min_end_margin_deg",
+    "instruments",
+    "bright_objects",
+    "inertia_scale",
+    "initial_rate_rad_s",
+    "actuators",
+}
+
+
+class _Reader:
+    def __init__(self, source: str) -> None:
+        self.source = source
+
+    def fail(self, key: str | None, reason: str) -> SpecError:
+        return SpecError(self.source, key, reason)
+
+    def mapping(self, value: Any, key: str, known: set[str]) -> dict[str, Any]:
+        if not isinstance(value, dict):
+            raise self.fail(key, f"expected a mapping, got {type(value).__name__}")
+        for k in value:
+            if k not in known:
+                raise self.fail(f"{key}.{k}", f"unknown key; known: {sorted(known)}")
+        return value
+
+    def number(self, value: Any, key: str, lo: float = -math.inf, lo_open: bool = False) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            raise self.fail(key, f"expected a number, got {value!r}")
+        x = float(value)
+        if not math.isfinite(x):
+            raise self.fail(key, "must be finite")
+        if x < lo or (lo_open and x == lo):
+            raise self.fail(key, f"must be {'>' if lo_open else '>='} {lo:g}, got {x:g}")
+        return x
+
+    def integer(self, value: Any, key: str, lo: int) -> int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise self.fail(key, f"expected an integer, got {value!r}")
+        if value < lo:
+            raise self.fail(key, f"must be >= {lo}, got {value}")
+        return value
+
+    def pair(self, value: Any, key: str, lo: float, lo_open: bool = False) -> Range:
+        if not isinstance(value, list) or len(value) != 2:
+            raise self.fail(key, f"expected [low, high], got {value!r}")
+        a = self.number(value[0], key, lo, lo_open)
+        b = self.number(value[1], key, lo, lo_open)
+        if a > b:
+            raise self.fail(key, f"low {a:g} is above high {b:g}")
+        return Range(a, b)
+
+    def count(self, value: Any, key: str) -> tuple[int, int]:
+        if not isinstance(value, list) or len(value) != 2:
+            raise self.fail(key, f"expected [min, max], got {value!r}")
+        a, b = self.integer(value[0], key, 1), self.integer(value[1], key, 1)
+        if a > b:
+            raise self.fail(key, f"min {a} is above max {b}")
+        return a, b
+
+
+def load_spec(path: str | Path) -> CampaignSpec:
+    """Read and validate a SPEC file (:class:`SpecError` naming the key on any problem)."""
+    source = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise SpecError(source, None, f"cannot read file: {exc}") from exc
+    try:
+        doc = load_strict(text)
+    except yaml.YAMLError as exc:
+        raise SpecError(source, None, f"not valid YAML: {exc}") from exc
+    r = _Reader(source)
+    if not isinstance(doc, dict) or list(doc) != ["campaign"]:
+        raise r.fail(None, "expected one top-level key 'campaign'")
+    c = r.mapping(doc["campaign"], "campaign", _TOP)
+    for required in ("name", "runs", "seed", "base_scenario", "dispersions"):
+        if required not in c:
+            raise r.fail(f"campaign.{required}", "missing")
+    name = c["name"]
+    if not isinstance(name, str) or not name.strip():
+        raise r.fail("campaign.name", f"expected a non-empty string, got {name!r}")
+    runs = r.integer(c["runs"], "campaign.runs", 1)
+    seed = r.integer(c["seed"], "campaign.seed", 0)
+    base = c["base_scenario"]
+    if not isinstance(base, str):
+        raise r.fail("campaign.base_scenario", f"expected a path, got {base!r}")
+    base_path = (Path(path).resolve().parent / base).resolve()
+    try:
+        load_scenario(base_path)
+    except ScenarioError as exc:
+        raise r.fail("campaign.base_scenario", f"not a valid scenario: {exc}") from exc
+    sim_time = None
+    if c.get("sim_time_s") is not None:
+        sim_time = r.number(c["sim_time_s"], "campaign.sim_time_s", 0.0, lo_open=True)
+    d = r.mapping(c["dispersions"], "campaign.dispersions", _DISPERSIONS)
+    key = "campaign.dispersions"
+    if d.get("attitudes", "uniform") != "uniform":
+        raise r.fail(f"{key}.attitudes", f"only 'uniform' is known, got {d['attitudes']!r}")
+    margin = r.number(d.get("min_end_margin_deg", 3.0), f"{key}.min_end_margin_deg", 0.0)
+    inst = r.mapping(d.get("instruments", {}), f"{key}.instruments", {"count", "half_angle_deg"})
+    inst_count = r.count(inst.get("count", [1, 3]), f"{key}.instruments.count")
+    half = r.pair(
+        inst.get("half_angle_deg", [10.0, 35.0]), f"{key}.instruments.half_angle_deg", 0.0, True
+    )
+    if half.hi >= 90.0:
+        raise r.fail(f"{key}.instruments.half_angle_deg", "must be below 90 deg")
+    objs = r.mapping(d.get("bright_objects", {}), f"{key}.bright_objects", {"count"})
+    obj_count = r.count(objs.get("count", [2, 6]), f"{key}.bright_objects.count")
+    scale = None
+    if d.get("inertia_scale") is not None:
+        scale = r.pair(d["inertia_scale"], f"{key}.inertia_scale", 0.0, lo_open=True)
+    rate_std = r.number(d.get("initial_rate_rad_s", 0.0), f"{key}.initial_rate_rad_s", 0.0)
+    torque = rate = None
+    if d.get("actuators") is not None:
+        act = r.mapping(d["actuators"], f"{key}.actuators", {"max_torque_nm", "max_rate_rad_s"})
+        if act.get("max_torque_nm") is not None:
+            torque = r.pair(act["max_torque_nm"], f"{key}.actuators.max_torque_nm", 0.0, True)
+        if act.get("max_rate_rad_s") is not None:
+            rate = r.pair(act["max_rate_rad_s"], f"{key}.actuators.max_rate_rad_s", 0.0, True)
+    variants = c.get("planner_variants", ["improved"])
+    if (
+        not isinstance(variants, list)
+        or not variants
+        or any(v not in VARIANTS for v in variants)
+        or len(set(variants)) != len(variants)
+    ):
+        raise r.fail(
+            "campaign.planner_variants",
+            f"expected distinct names from {list(VARIANTS)}, got {variants!r}",
+        )
+    return CampaignSpec(
+        name=name,
+        runs=runs,
+        seed=seed,
+        base_scenario=str(base_path),
+        sim_time_s=sim_time,
+        min_end_margin_deg=margin,
+        instrument_count=inst_count,
+        half_angle_deg=half,
+        object_count=obj_count,
+        inertia_scale=scale,
+        initial_rate_std_rad_s=rate_std,
+        max_torque_nm=torque,
+        max_rate_rad_s=rate,
+        planner_variants=tuple(variants),
+        source=source,
+    )

@@ -1,0 +1,108 @@
+"""One campaign task: run ``i`` with one planner variant through the offline closed loop
+(the same core as the nodes), as one row of the results table.
+
+:func:`run_task` is what the Dask workers execute; it depends only on the SPEC and
+``(i, variant)``. Timing columns (``*_s`` walls, the planner step median) are the only
+ones that differ between two executions of the same task.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from attitude_core.closed_loop import run_closed_loop
+from attitude_core.mrp import principal_angle, relative
+from attitude_core.scenario import loads_scenario
+from attitude_core.status import PlannerStatus
+from attitude_core.trajectory import summarize
+
+from .draw import base_parameters, draw_run, scenario_text
+from .spec import CampaignSpec
+
+__all__ = ["OUTCOMES", "FAILURES", "TIMING_COLUMNS", "outcome_of", "run_task", "reproducer"]
+
+OUTCOMES = ("reached", "violated", "stuck", "infeasible", "not_reached")
+FAILURES = ("violated", "infeasible", "stuck", "not_reached")  # worst first
+TIMING_COLUMNS = ("planner_step_us_median", "wall_time_s", "loop_s", "metrics_s", "task_s")
+
+
+def outcome_of(summary: dict[str, Any], statuses: np.ndarray) -> str:
+    """``violated`` (the body inside a cone, dense), else ``reached``, else the planner's
+    ``infeasible`` or ``stuck``, else ``not_reached``."""
+    if summary["min_margin_deg"] <= 0.0:
+        return "violated"
+    if summary["reached"]:
+        return "reached"
+    if np.any(statuses == PlannerStatus.INFEASIBLE.code):
+        return "infeasible"
+    if summary["planner_stuck"]:
+        return "stuck"
+    return "not_reached"
+
+
+def _variant_flat(flat: dict[str, Any], variant: str) -> dict[str, Any]:
+    """The drawn parameters flown by ``variant`` (its defaults apply to the planner keys
+    the base scenario does not set)."""
+    return {**flat, "planner.variant": variant}
+
+
+def reproducer(spec: CampaignSpec, i: int, variant: str) -> str:
+    """A complete scenario file that reproduces run ``i`` with ``variant``."""
+    draw = draw_run(spec, base_parameters(spec), i)
+    head = (
+        f"# Campaign '{spec.name}' ({spec.source}), seed {spec.seed}: run {i}, "
+        f"planner variant {variant}.\n# attitude-offline and attitude-run take it as is.\n"
+    )
+    return head + scenario_text(_variant_flat(draw.flat, variant))
+
+
+def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
+    """The results row of run ``i`` flown by ``variant``."""
+    t0 = time.perf_counter()
+    draw = draw_run(spec, base_parameters(spec), i)
+    sc = draw.scenario
+    if sc.planner.variant != variant:
+        sc = loads_scenario(scenario_text(_variant_flat(draw.flat, variant)), sc.source)
+    t1 = time.perf_counter()
+    run = run_closed_loop(sc)
+    t2 = time.perf_counter()
+    summary = summarize(run)
+    t3 = time.perf_counter()
+    eigen_deg = math.degrees(float(principal_angle(relative(sc.initial_mrp, sc.desired_mrp))))
+    rotation = summary["rotation_deg"]
+    act = sc.actuators
+    torque = act.max_torque_nm or (math.nan, math.nan, math.nan)
+    row: dict[str, Any] = {
+        "run": i,
+        "variant": variant,
+        "seed": spec.seed,
+        "n_instruments": len(sc.instrument_names),
+        "n_objects": len(sc.bright_object_names),
+        "redraws_refused": draw.refused_by_loader,
+        "redraws_too_close": draw.too_close_to_a_cone,
+        **{f"sigma_0_{k + 1}": float(sc.initial_mrp[k]) for k in range(3)},
+        **{f"sigma_d_{k + 1}": float(sc.desired_mrp[k]) for k in range(3)},
+        "eigenaxis_deg": eigen_deg,
+        "max_torque_nm_min": float(min(torque)),
+        "max_rate_rad_s": math.nan if act.max_rate_rad_s is None else act.max_rate_rad_s,
+        "outcome": outcome_of(summary, run.planner_status),
+        "t_reach_s": math.nan if summary["t_reach_s"] is None else summary["t_reach_s"],
+        "min_margin_deg": summary["min_margin_deg"],
+        "rotation_deg": rotation,
+        "rotation_ratio": rotation / eigen_deg if eigen_deg > 1e-9 else math.nan,
+        "time_ratio_to_bound": (
+            math.nan if summary["time_ratio_to_bound"] is None else summary["time_ratio_to_bound"]
+        ),
+        "peak_rate_rad_s": summary["peak_rate_rad_s"],
+        "peak_torque_nm": summary["peak_torque_nm"],
+        "planner_step_us_median": summary["planner_step_us_median"],
+        "wall_time_s": summary["wall_time_s"],
+        "loop_s": t2 - t1,
+        "metrics_s": t3 - t2,
+    }
+    row["task_s"] = time.perf_counter() - t0
+    return row
