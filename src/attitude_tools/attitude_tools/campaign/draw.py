@@ -2,12 +2,14 @@
 
 The random stream of run ``i`` is ``numpy.random.default_rng([seed, i])``, so a run
 draws the same scenario whatever the worker, the partitioning or the order. Every draw
-goes through the one scenario loader (``loads_scenario``); a draw it refuses, or whose
-start or goal lies within ``min_end_margin_deg`` of a cone, is counted and redrawn.
+goes through the one scenario loader (``loads_scenario``); a draw whose start or goal
+lies within ``min_end_margin_deg`` of a cone (checked first, on the drawn values), or
+that the loader refuses, is counted and redrawn.
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -15,6 +17,7 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from attitude_core.constraints import margins_deg_from_dcm
 from attitude_core.scenario import Scenario, ScenarioError, flatten_parameters, loads_scenario
 from attitude_core.scenario import scenario_yaml as to_yaml
 from attitude_core.yamlio import load_strict
@@ -36,8 +39,14 @@ class Draw:
 
 
 def base_parameters(spec: CampaignSpec) -> dict[str, Any]:
-    """The base scenario's parameters, dotted; data-file paths made absolute."""
-    path = Path(spec.base_scenario)
+    """The base scenario's parameters, dotted; data-file paths made absolute (read once
+    per process: every task of a worker shares the base)."""
+    return dict(_base_parameters(spec.base_scenario))
+
+
+@functools.lru_cache(maxsize=8)
+def _base_parameters(base_scenario: str) -> dict[str, Any]:
+    path = Path(base_scenario)
     doc = load_strict(path.read_text(encoding="utf-8"))
     flat = flatten_parameters(doc["/**"]["ros__parameters"], str(path))
     for key in ("planner.fis_attractive", "planner.fis_repulsive"):
@@ -97,29 +106,39 @@ def _candidate(
     return flat
 
 
+def _end_margin_deg(flat: dict[str, Any]) -> float:
+    """The smallest keep-out margin (eq. 5) of the drawn start and goal attitudes."""
+    inst = flat["instruments.names"]
+    objs = flat["bright_objects.names"]
+    s = np.array([flat[f"instruments.{n}.boresight_body"] for n in inst], dtype=float)
+    beta = np.array([flat[f"instruments.{n}.half_angle_deg"] for n in inst], dtype=float)
+    c = np.array([flat[f"bright_objects.{n}.direction_inertial"] for n in objs], dtype=float)
+    ends = np.array([flat["initial_mrp"], flat["desired_mrp"]], dtype=float)
+    c_bn = np.linalg.inv(Rotation.from_mrp(ends).as_matrix())  # C_BN = (C_NB)^T
+    return float(margins_deg_from_dcm(c_bn, s, beta, c).min())
+
+
 def scenario_text(flat: dict[str, Any]) -> str:
     """A complete scenario file for drawn parameters."""
     return to_yaml(flat)
 
 
-def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int) -> Draw:
-    """The scenario of run ``i`` (every variant of the run flies this one)."""
+def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int, variant: str | None = None) -> Draw:
+    """The scenario of run ``i`` (every variant of the run flies this one), flown by
+    ``variant`` (``planner.variant``; None: the base scenario's)."""
     rng = np.random.default_rng([spec.seed, i])
     refused = close = 0
     for _ in range(MAX_REDRAWS):
         flat = _candidate(spec, base, i, rng)
+        if variant is not None:
+            flat["planner.variant"] = variant
+        if _end_margin_deg(flat) < spec.min_end_margin_deg:
+            close += 1  # cheap check first: the loader would refuse one inside a cone
+            continue
         try:
             sc = loads_scenario(scenario_text(flat), f"<{spec.name} run {i}>")
         except ScenarioError:
             refused += 1
-            continue
-        exact = sc.keep_out()
-        ends = min(
-            exact.min_margin_deg_single(sc.initial_mrp),
-            exact.min_margin_deg_single(sc.desired_mrp),
-        )
-        if ends < spec.min_end_margin_deg:
-            close += 1
             continue
         return Draw(i, flat, sc, refused, close)
     raise RuntimeError(

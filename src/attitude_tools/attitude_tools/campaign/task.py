@@ -16,7 +16,6 @@ import numpy as np
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.mrp import principal_angle, relative
-from attitude_core.scenario import loads_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.trajectory import summarize
 
@@ -63,10 +62,8 @@ def reproducer(spec: CampaignSpec, i: int, variant: str) -> str:
 def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
     """The results row of run ``i`` flown by ``variant``."""
     t0 = time.perf_counter()
-    draw = draw_run(spec, base_parameters(spec), i)
+    draw = draw_run(spec, base_parameters(spec), i, variant)
     sc = draw.scenario
-    if sc.planner.variant != variant:
-        sc = loads_scenario(scenario_text(_variant_flat(draw.flat, variant)), sc.source)
     t1 = time.perf_counter()
     run = run_closed_loop(sc)
     t2 = time.perf_counter()
