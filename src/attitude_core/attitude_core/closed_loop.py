@@ -20,6 +20,7 @@ from .control import PdGains, commanded_torque
 from .dynamics import RigidBody
 from .guidance import Guidance
 from .scenario import Scenario
+from .topics import NS_PER_S
 from .trajectory import RunResult
 
 __all__ = ["run_closed_loop"]
@@ -30,6 +31,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     wall0 = time.perf_counter()
     n = scenario.n_steps
     dt = scenario.dt_s
+    dt_ns = round(dt * NS_PER_S)
     guidance = Guidance.from_scenario(scenario)
     gains = PdGains(scenario.kp, scenario.kd)
     limit = scenario.actuators.max_torque_nm
@@ -45,7 +47,10 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     clock = time.perf_counter
     for k in range(n + 1):
         c0 = clock()
-        target = guidance.update(k * dt, body.sigma_bn, body.omega_b).target
+        # The time the planner node derives from the state stamp (k dt in integer ns),
+        # to the last bit: the guidance's thresholds then decide alike in both.
+        t_k = k * dt_ns / NS_PER_S
+        target = guidance.update(t_k, body.sigma_bn, body.omega_b).target
         step_s[k] = clock() - c0
         u = commanded_torque(
             gains, body.sigma_bn, body.omega_b, target.sigma_t, target.omega_t, limit

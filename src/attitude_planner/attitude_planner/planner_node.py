@@ -33,6 +33,7 @@ from attitude_core import diagnostics, node_graph
 from attitude_core.fepf import FepfPlanner
 from attitude_core.guidance import Guidance, GuidanceOutput
 from attitude_core.status import PlannerStatus
+from attitude_core.topics import NS_PER_S
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     bad_frame,
@@ -133,7 +134,8 @@ class FepfPlannerNode(Node):
             self.first_stamp_ns = stamp
             self.get_logger().info(f"planning from sigma_BN = {sigma_bn.round(6).tolist()}")
         t0 = time.perf_counter()
-        result = self.guidance.update((stamp - self.first_stamp_ns) / 1e9, sigma_bn, omega_b)
+        t_s = (stamp - self.first_stamp_ns) / NS_PER_S
+        result = self.guidance.update(t_s, sigma_bn, omega_b)
         step_s = time.perf_counter() - t0
         out = result.target
         self.last_stamp_ns = stamp
