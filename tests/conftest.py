@@ -19,7 +19,11 @@ from __future__ import annotations
 
 import os
 import random
+import shutil
+import signal
 import socket
+import subprocess
+import sys
 import time
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -32,6 +36,53 @@ needs_workspace = pytest.mark.skipif(
     reason="colcon workspace not built (bash tools/bootstrap builds it)",
 )
 """Mark for tests that start the project's nodes: they need the built colcon workspace."""
+
+
+def start_bridge(
+    scenario: Path, env: dict[str, str], log: Path, *params: str
+) -> subprocess.Popen[bytes]:
+    """The example hardware bridge (``spacecraft_bridge_example``) on ``scenario``, with
+    the node table's state listeners and extra ``-p`` parameters (``"time_mode:=realtime"``),
+    its output in ``log``. The caller stops it (SIGINT) and waits for it."""
+    from attitude_core.node_graph import state_listeners
+
+    ros2 = shutil.which("ros2", path=env["PATH"])
+    assert ros2 is not None
+    extra = [arg for param in params for arg in ("-p", param)]
+    with open(log, "wb") as out:
+        return subprocess.Popen(
+            [ros2, "run", "spacecraft_bridge_example", "bridge", "--ros-args",
+             "--params-file", str(scenario), *extra,
+             "-p", f"lockstep.expected_subscribers:={state_listeners()}"],
+            env=env, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        )  # fmt: skip
+
+
+def run_with_bridge(
+    scenario: Path,
+    out: Path,
+    env: dict[str, str],
+    log: Path,
+    run_args: tuple[str, ...] = (),
+    bridge_params: tuple[str, ...] = (),
+    timeout_s: float = 600.0,
+) -> tuple[subprocess.CompletedProcess[str], int]:
+    """``attitude-run --plant external`` on ``scenario`` against :func:`start_bridge`; the
+    bridge outlives the run and is stopped (SIGINT) after it, as a user would. Returns
+    the run (return code, stdout, stderr) and the bridge's return code."""
+    args = [str(Path(sys.prefix) / "bin" / "attitude-run"), str(scenario), "--out", str(out),
+            "--quiet", "--plant", "external", *run_args]  # fmt: skip
+    run = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    bridge = start_bridge(scenario, env, log, *bridge_params)
+    try:
+        stdout, stderr = run.communicate(timeout=timeout_s)
+    finally:
+        if run.poll() is None:
+            run.kill()
+        bridge.send_signal(signal.SIGINT)
+        bridge.wait(30)
+    return subprocess.CompletedProcess(args, run.returncode, stdout, stderr), bridge.returncode
+
 
 DOMAIN_PORT_BASE = 22119  # domain_coordinator's _PORT_BASE
 DOMAIN_IDS = range(1, 102)

@@ -7,19 +7,16 @@ arrival plus the settle time, and its bag must make a report.
 from __future__ import annotations
 
 import json
-import shutil
-import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import needs_workspace
+from conftest import needs_workspace, run_with_bridge
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.metrics import dense_min_margin_deg
-from attitude_core.node_graph import state_listeners
 from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import CLOCK
@@ -37,39 +34,19 @@ pytestmark = [
 ]
 
 
-def _bridge(scenario: Path, mode: str, env: dict[str, str], log: Path) -> subprocess.Popen:
-    ros2 = shutil.which("ros2", path=env["PATH"])
-    assert ros2 is not None
-    with open(log, "wb") as out:
-        return subprocess.Popen(
-            [ros2, "run", "spacecraft_bridge_example", "bridge", "--ros-args",
-             "--params-file", str(scenario), "-p", f"time_mode:={mode}",
-             "-p", f"lockstep.expected_subscribers:={state_listeners()}"],
-            env=env, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-        )  # fmt: skip
-
-
 @pytest.mark.parametrize("mode, case", [("lockstep", "case1"), ("realtime", "case2")])
 def test_attitude_run_against_the_example_bridge(mode, case, tmp_path, ros_env):
     scenario_path = ROOT / "scenarios" / f"{case}.yaml"
     env = ros_env(ros_environment())
     out = tmp_path / "run"
-    run = subprocess.Popen(
-        [str(BIN / "attitude-run"), str(scenario_path), "--out", str(out), "--quiet",
-         "--plant", "external", "--mode", mode, "--settle-s", str(SETTLE_S)],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    run, bridge_code = run_with_bridge(
+        scenario_path, out, env, tmp_path / "bridge.log",
+        run_args=("--mode", mode, "--settle-s", str(SETTLE_S)),
+        bridge_params=(f"time_mode:={mode}",), timeout_s=400,
     )  # fmt: skip
-    bridge = _bridge(scenario_path, mode, env, tmp_path / "bridge.log")
-    try:
-        stdout, stderr = run.communicate(timeout=400)
-    finally:
-        if run.poll() is None:
-            run.kill()
-        bridge.send_signal(signal.SIGINT)  # the plant outlives the run: the user stops it
-        bridge.wait(30)
     bridge_log = (tmp_path / "bridge.log").read_text()
-    assert bridge.returncode == 0 and "Traceback" not in bridge_log, bridge_log
-    assert run.returncode == 0, stdout + stderr
+    assert bridge_code == 0 and "Traceback" not in bridge_log, bridge_log
+    assert run.returncode == 0, run.stdout + run.stderr
     summary = json.loads((out / "summary.json").read_text())
     assert summary["plant"] == "external" and summary["time_mode"] == mode
     assert summary["end_reason"] == "planner finished" and summary["failure"] is None

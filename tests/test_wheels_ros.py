@@ -11,20 +11,17 @@ exceeds ``max_rate_rad_s`` by more than 5 %.
 from __future__ import annotations
 
 import json
-import shutil
-import signal
 import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import needs_workspace
+from conftest import needs_workspace, run_with_bridge
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.metrics import dense_min_margin_deg
 from attitude_core.mrp import principal_angle, relative
-from attitude_core.node_graph import state_listeners
 from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import APPLIED_TORQUE, TORQUE
@@ -37,6 +34,14 @@ ROOT = Path(__file__).resolve().parents[1]
 BIN = Path(sys.prefix) / "bin"
 WHEELS = sorted(p.name for p in (ROOT / "scenarios").glob("*_wheels.yaml"))
 pytestmark = [pytest.mark.ros, pytest.mark.slow, needs_workspace]
+
+
+def recorded_torques(out: Path, topic: str) -> np.ndarray:
+    """Every torque recorded on ``topic`` (a ``WrenchStamped``), N m, body axes."""
+    return np.array(
+        [[m.msg.wrench.torque.x, m.msg.wrench.torque.y, m.msg.wrench.torque.z]
+         for m in read_bag(str(out / "bag"), [topic])]
+    )  # fmt: skip
 
 
 def check_bag(out: Path, scenario_path: Path) -> dict:
@@ -56,10 +61,7 @@ def check_bag(out: Path, scenario_path: Path) -> dict:
     assert np.linalg.norm(rec.omega_b[arrived], axis=1).max() <= 2 * sc.arrival.rate_tol_rad_s
     bound = np.asarray(act.max_torque_nm)
     for name in (TORQUE, APPLIED_TORQUE):
-        torques = np.array(
-            [[m.msg.wrench.torque.x, m.msg.wrench.torque.y, m.msg.wrench.torque.z]
-             for m in read_bag(str(out / "bag"), [name])]
-        )  # fmt: skip
+        torques = recorded_torques(out, name)
         assert len(torques) >= len(rec.t) - 1, name
         assert np.all(np.abs(torques) <= bound * (1 + 1e-9)), name
     assert np.linalg.norm(rec.omega_b, axis=1).max() <= 1.05 * act.max_rate_rad_s
@@ -79,18 +81,6 @@ def test_wheels_scenario_through_the_graph(name, tmp_path, ros_env):
     assert summary["time_ratio_to_bound"] <= 1.3
 
 
-def _bridge(scenario: Path, dt_s: float, env: dict[str, str], log: Path) -> subprocess.Popen:
-    ros2 = shutil.which("ros2", path=env["PATH"])
-    assert ros2 is not None
-    with open(log, "wb") as out:
-        return subprocess.Popen(
-            [ros2, "run", "spacecraft_bridge_example", "bridge", "--ros-args",
-             "--params-file", str(scenario), "-p", f"dt_s:={dt_s}",
-             "-p", f"lockstep.expected_subscribers:={state_listeners()}"],
-            env=env, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-        )  # fmt: skip
-
-
 @pytest.mark.parametrize("state_period_s", [0.05, 0.2])
 def test_states_at_another_rate_give_the_same_slew(state_period_s, tmp_path, ros_env):
     """A plant publishing at twice or half the scenario's 10 Hz: same safety and arrival
@@ -98,20 +88,11 @@ def test_states_at_another_rate_give_the_same_slew(state_period_s, tmp_path, ros
     scenario_path = ROOT / "scenarios" / "case1_wheels.yaml"
     env = ros_env(ros_environment())
     out = tmp_path / "run"
-    run = subprocess.Popen(
-        [str(BIN / "attitude-run"), str(scenario_path), "--out", str(out), "--quiet",
-         "--plant", "external", "--settle-s", "2.0"],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    run, bridge_code = run_with_bridge(
+        scenario_path, out, env, tmp_path / "bridge.log",
+        run_args=("--settle-s", "2.0"), bridge_params=(f"dt_s:={state_period_s}",),
     )  # fmt: skip
-    bridge = _bridge(scenario_path, state_period_s, env, tmp_path / "bridge.log")
-    try:
-        stdout, stderr = run.communicate(timeout=600)
-    finally:
-        if run.poll() is None:
-            run.kill()
-        bridge.send_signal(signal.SIGINT)
-        bridge.wait(30)
-    assert run.returncode == 0, stdout + stderr
+    assert run.returncode == 0, run.stdout + run.stderr
     summary = check_bag(out, scenario_path)
     stamps = run_from_bag(str(out / "bag")).stamps_ns
     assert np.median(np.diff(stamps)) * 1e-9 == pytest.approx(state_period_s)
@@ -135,10 +116,7 @@ def test_a_plant_weaker_than_declared_never_gets_arrived_off_the_goal(tmp_path, 
     summary = json.loads((out / "summary.json").read_text())
     assert run.returncode == 1 and not summary["reached"], run.stdout + run.stderr
     rec = run_from_bag(str(out / "bag")).run
-    applied = np.array(
-        [[m.msg.wrench.torque.x, m.msg.wrench.torque.y, m.msg.wrench.torque.z]
-         for m in read_bag(str(out / "bag"), [APPLIED_TORQUE])]
-    )  # fmt: skip
+    applied = recorded_torques(out, APPLIED_TORQUE)
     assert np.abs(applied).max() == pytest.approx(0.003)  # the weak plant did saturate
     err = np.degrees(principal_angle(relative(rec.sigma_bn, sc.desired_mrp)))
     arrived = rec.planner_status == PlannerStatus.ARRIVED.code

@@ -30,7 +30,7 @@ from typing import Any
 from .progress import Progress
 from .spec import CampaignSpec, SpecError, load_spec
 from .stats import summarize_campaign, worst_runs
-from .store import PartWriter, read_parts, write_table
+from .store import PartWriter, done_tasks, read_parts, write_table
 from .task import TIMING_COLUMNS, reproducer, run_task
 
 __all__ = ["main", "run_campaign", "CONNECT_TIMEOUT_S", "WORST"]
@@ -149,7 +149,7 @@ def run_campaign(
         out.mkdir(parents=True, exist_ok=True)
         if not (out / SPEC_COPY).exists():
             shutil.copyfile(spec.source, out / SPEC_COPY)
-        done = {(int(r), str(v)) for r, v in _done_pairs(out)}
+        done = done_tasks(out)
         todo = [t for t in spec.tasks if t not in done]
         log(
             f"attitude-campaign: {spec.name}: {len(spec.tasks)} tasks, {len(done)} done, "
@@ -164,7 +164,7 @@ def run_campaign(
     finally:
         _close(client)
     if interrupted:
-        left = len(spec.tasks) - len(_done_pairs(out))
+        left = len(spec.tasks) - len(done_tasks(out))
         log(f"attitude-campaign: interrupted; {left} task(s) left: --resume continues")
         return 130
     info = {
@@ -176,20 +176,13 @@ def run_campaign(
         "base_scenario": spec.base_scenario,
         "tasks": len(spec.tasks),
         "engine": engine,
-        "wall_time_s": time.monotonic() - t0,  # this invocation, cluster start included
+        "wall_time_s": time.monotonic() - t0,  # connected to outputs written (this run)
         "tasks_wall_s": tasks_wall,  # from the first submission to the last result
         "resumed": bool(done),
         "timing_columns": list(TIMING_COLUMNS),
     }
     _finish(spec, out, info, log)
     return 0
-
-
-def _done_pairs(out: Path) -> list[tuple[int, str]]:
-    frame = read_parts(out)
-    if frame.empty:
-        return []
-    return list(zip(frame["run"].astype(int), frame["variant"].astype(str), strict=True))
 
 
 def _run_tasks(client, spec: CampaignSpec, todo, writer: PartWriter, progress: Progress) -> bool:

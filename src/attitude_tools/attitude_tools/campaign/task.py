@@ -43,20 +43,14 @@ def outcome_of(summary: dict[str, Any], statuses: np.ndarray) -> str:
     return "not_reached"
 
 
-def _variant_flat(flat: dict[str, Any], variant: str) -> dict[str, Any]:
-    """The drawn parameters flown by ``variant`` (its defaults apply to the planner keys
-    the base scenario does not set)."""
-    return {**flat, "planner.variant": variant}
-
-
 def reproducer(spec: CampaignSpec, i: int, variant: str) -> str:
     """A complete scenario file that reproduces run ``i`` with ``variant``."""
-    draw = draw_run(spec, base_parameters(spec), i)
+    draw = draw_run(spec, base_parameters(spec), i, variant)
     head = (
         f"# Campaign '{spec.name}' ({spec.source}), seed {spec.seed}: run {i}, "
         f"planner variant {variant}.\n# attitude-offline and attitude-run take it as is.\n"
     )
-    return head + scenario_text(_variant_flat(draw.flat, variant))
+    return head + scenario_text(draw.flat)
 
 
 def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
