@@ -20,12 +20,13 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 from conftest import needs_workspace
+from scipy.spatial.transform import Rotation
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.metrics import dense_min_margin_deg
-from attitude_core.scenario import load_scenario
+from attitude_core.scenario import load_scenario, loads_scenario
 from attitude_tools.bag_run import run_from_bag
-from attitude_tools.campaign.draw import base_parameters, draw_run
+from attitude_tools.campaign.draw import _candidate, base_parameters, draw_run, scenario_text
 from attitude_tools.campaign.spec import SpecError, load_spec
 from attitude_tools.campaign.stats import wilson_interval
 from attitude_tools.campaign.task import OUTCOMES, TIMING_COLUMNS, run_task
@@ -126,6 +127,41 @@ def assert_same_table(a: pd.DataFrame, b: pd.DataFrame) -> None:
             "expected [low, high]",
         ),
         ({"dispersions": {"colour": 1}}, "campaign.dispersions.colour", "unknown key"),
+        (
+            {"dispersions": {"keep_in": {"count": [-1, 2], "max_angle_deg": [60.0, 90.0]}}},
+            "campaign.dispersions.keep_in.count",
+            "must be >= 0",
+        ),
+        (
+            {"dispersions": {"keep_in": {"count": [2, 1], "max_angle_deg": [60.0, 90.0]}}},
+            "campaign.dispersions.keep_in.count",
+            "above max",
+        ),
+        (
+            {"dispersions": {"keep_in": {"count": [1, 2], "max_angle_deg": [0.0, 90.0]}}},
+            "campaign.dispersions.keep_in.max_angle_deg",
+            "must be > 0",
+        ),
+        (
+            {"dispersions": {"keep_in": {"count": [1, 2], "max_angle_deg": [60.0, 180.0]}}},
+            "campaign.dispersions.keep_in.max_angle_deg",
+            "below 180",
+        ),
+        (
+            {"dispersions": {"keep_in": {"count": [1, 2]}}},
+            "campaign.dispersions.keep_in.max_angle_deg",
+            "missing",
+        ),
+        (
+            {"dispersions": {"keep_in": {"count": [1, 2], "max_angle_deg": [60.0, 90.0], "n": 1}}},
+            "campaign.dispersions.keep_in.n",
+            "unknown key",
+        ),
+        (
+            {"dispersions": {"keep_in": [1, 2]}},
+            "campaign.dispersions.keep_in",
+            "expected a mapping",
+        ),
     ],
 )
 def test_a_bad_spec_names_the_key_exits_2_and_writes_nothing(tmp_path, change, key, reason):
@@ -175,7 +211,7 @@ def test_a_run_depends_only_on_the_seed_and_its_index(tmp_path):
         d = draw_run(spec, base, i)
         sc = d.scenario
         assert 1 <= len(sc.instrument_names) <= 3 and 2 <= len(sc.bright_object_names) <= 6
-        exact = sc.keep_out()
+        exact = sc.cone_geometry()
         assert exact.min_margin_deg_single(sc.initial_mrp) >= 3.0
         assert exact.min_margin_deg_single(sc.desired_mrp) >= 3.0
         assert all(0.05 <= t <= 0.2 for t in sc.actuators.max_torque_nm)
@@ -193,6 +229,134 @@ def test_a_run_depends_only_on_the_seed_and_its_index(tmp_path):
     )
     d = draw_run(tight, base_parameters(tight), 0)
     assert d.refused_by_loader + d.too_close_to_a_cone > 0
+
+
+# Run 0, 3 and 5 of write_spec's SPEC (seed 7) as drawn before keep-in cones existed:
+# (initial_mrp, desired_mrp, max_rate_rad_s, instruments, objects, redraws too close).
+DRAWN_BEFORE_KEEP_IN = {
+    0: (
+        [0.023256595380798297, -0.05433257473016636, 0.7337124685256233],
+        [0.36945471318734496, 0.3053887624763629, -0.40055835947765284],
+        0.09013989568456782, 3, 5, 0,
+    ),
+    3: (
+        [0.8588610387313792, 0.020000248388649708, 0.29319333874728815],
+        [-0.15556863799495102, 0.515580122692136, -0.20761110387148907],
+        0.05063681232761468, 1, 5, 2,
+    ),
+    5: (
+        [-0.5943323027610317, 0.21693116797197093, -0.14466954871033158],
+        [-0.09196456843284917, 0.7231657342739717, 0.5727125180636679],
+        0.11641147606152512, 1, 3, 3,
+    ),
+}  # fmt: skip
+
+
+def test_a_spec_without_keep_in_draws_the_runs_it_drew_before(tmp_path):
+    spec = load_spec(write_spec(tmp_path, runs=50))
+    assert spec.keep_in_count is None
+    base = base_parameters(spec)
+    for i, (sigma_0, sigma_d, rate, n_inst, n_obj, close) in DRAWN_BEFORE_KEEP_IN.items():
+        d = draw_run(spec, base, i)
+        assert d.flat["initial_mrp"] == pytest.approx(sigma_0, rel=1e-13, abs=1e-15)
+        assert d.flat["desired_mrp"] == pytest.approx(sigma_d, rel=1e-13, abs=1e-15)
+        assert d.flat["actuators.max_rate_rad_s"] == pytest.approx(rate, rel=1e-13)
+        assert (len(d.scenario.instrument_names), len(d.scenario.bright_object_names)) == (
+            n_inst,
+            n_obj,
+        )
+        assert (d.too_close_to_a_cone, d.refused_by_loader) == (close, 0)
+        assert d.scenario.keep_in_names == () and not any(k.startswith("keep_in") for k in d.flat)
+
+
+def test_keep_in_draws_come_after_every_other_draw(tmp_path):
+    """A candidate with keep-in cones consumes the stream of one without, then its own:
+    every other drawn value is the same."""
+    plain = load_spec(write_spec(tmp_path, runs=50))
+    with_keep_in = load_spec(
+        write_spec(
+            tmp_path,
+            runs=50,
+            name="keep_in.yaml",
+            dispersions={
+                "instruments": {"count": [1, 3], "half_angle_deg": [10.0, 35.0]},
+                "bright_objects": {"count": [2, 6]},
+                "actuators": {"max_torque_nm": [0.05, 0.2], "max_rate_rad_s": [0.05, 0.2]},
+                "keep_in": {"count": [1, 2], "max_angle_deg": [60.0, 120.0]},
+            },
+        )
+    )
+    base = base_parameters(plain)
+    for i in range(10):
+        a = _candidate(plain, base, i, np.random.default_rng([7, i]))
+        b = _candidate(with_keep_in, base, i, np.random.default_rng([7, i]))
+        assert {k: v for k, v in b.items() if not k.startswith("keep_in.")} == a
+        assert 1 <= len(b["keep_in.names"]) <= 2
+
+
+def test_keep_in_draws_respect_the_dispersion_and_the_end_margin(tmp_path):
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            runs=50,
+            dispersions={
+                "min_end_margin_deg": 4.0,
+                "instruments": {"count": [1, 2], "half_angle_deg": [10.0, 20.0]},
+                "bright_objects": {"count": [2, 3]},
+                "keep_in": {"count": [0, 2], "max_angle_deg": [60.0, 120.0]},
+            },
+        )
+    )
+    assert spec.keep_in_count == (0, 2) and spec.keep_in_max_angle_deg.lo == 60.0
+    base = base_parameters(spec)
+    counts = set()
+    for i in range(12):
+        d = draw_run(spec, base, i)
+        assert d.flat == draw_run(spec, base, i).flat  # (seed, i) only
+        sc = d.scenario
+        counts.add(len(sc.keep_in_names))
+        assert len(sc.keep_in_names) <= 2
+        assert np.all((sc.keep_in_max_angles_deg >= 60.0) & (sc.keep_in_max_angles_deg <= 120.0))
+        np.testing.assert_allclose(np.linalg.norm(sc.keep_in_axes_body, axis=1), 1.0)
+        if not sc.keep_in_names:
+            assert "keep_in.names" not in d.flat  # no empty list in a ROS 2 parameters file
+        # Every keep-in cone holds the start and goal by >= 4 deg (SciPy, independently).
+        for sigma in (sc.initial_mrp, sc.desired_mrp):
+            axes_n = Rotation.from_mrp(np.array(sigma)).apply(np.array(sc.keep_in_axes_body))
+            cos = np.einsum("ki,ki->k", axes_n, sc.keep_in_directions_inertial)
+            margins = sc.keep_in_max_angles_deg - np.degrees(np.arccos(np.clip(cos, -1, 1)))
+            assert np.all(margins >= 4.0), (i, margins)
+            assert sc.cone_geometry().min_margin_deg_single(sigma) >= 4.0
+    assert counts == {0, 1, 2}
+    # The drawn cones make the end-margin rule redraw: counted, as for keep-out cones.
+    assert sum(draw_run(spec, base, i).too_close_to_a_cone for i in range(12)) > 0
+
+
+def test_the_keep_in_campaign_spec_draws_keep_in_cones():
+    spec = load_spec(ROOT / "campaigns" / "random_slews_keep_in.yaml")
+    assert spec.keep_in_count == (1, 2) and spec.planner_variants == ("improved",)
+    assert (spec.keep_in_max_angle_deg.lo, spec.keep_in_max_angle_deg.hi) == (60.0, 120.0)
+    d = draw_run(spec, base_parameters(spec), 0, "improved")
+    assert 1 <= len(d.scenario.keep_in_names) <= 2
+    reread = loads_scenario(scenario_text(d.flat))  # the reproducer's text
+    np.testing.assert_array_equal(reread.keep_in_axes_body, d.scenario.keep_in_axes_body)
+
+
+def test_a_task_row_counts_the_keep_in_cones(tmp_path):
+    spec = load_spec(
+        write_spec(
+            tmp_path,
+            runs=2,
+            sim_time_s=5.0,
+            dispersions={"keep_in": {"count": [2, 2], "max_angle_deg": [100.0, 120.0]}},
+        )
+    )
+    row = run_task(spec, 0, "improved")
+    assert row["n_keep_in"] == 2
+    assert (
+        run_task(load_spec(write_spec(tmp_path, runs=2, sim_time_s=5.0)), 0, "paper")["n_keep_in"]
+        == 0
+    )
 
 
 def test_a_task_row_measures_the_body(tmp_path):
@@ -414,7 +578,7 @@ def test_a_reproducer_runs_as_is_through_the_ros_graph(tmp_path, ros_env):
     n = len(rec.t)
     np.testing.assert_allclose(rec.sigma_bn, offline.sigma_bn[:n], rtol=0, atol=1e-9)
     margin, _ = dense_min_margin_deg(
-        rec.scenario.keep_out(), offline.t[:n], offline.sigma_bn[:n], offline.omega_b[:n]
+        rec.scenario.cone_geometry(), offline.t[:n], offline.sigma_bn[:n], offline.omega_b[:n]
     )
     assert summary["min_margin_deg"] == pytest.approx(margin, abs=1e-9)
     assert summary["min_margin_deg"] >= row["min_margin_deg"] - 1e-9

@@ -3,9 +3,9 @@ checked against a brute-force dense sampling of the margin function."""
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
 
-from attitude_core.constraints import KeepOutGeometry
+from attitude_core.constraints import ConeGeometry, KeepInCones
 
 PAPER = dict(
     boresights_body=[[1.0, 0.0, 0.0]],
@@ -34,7 +34,7 @@ def _margin_reference(geometry, sigma):
 
 
 def test_margins_match_scipy_reference():
-    g = KeepOutGeometry(**TWO_INSTRUMENTS)
+    g = ConeGeometry(**TWO_INSTRUMENTS)
     sig = np.random.default_rng(0).uniform(-1.2, 1.2, size=(500, 3))
     np.testing.assert_allclose(g.margins_deg(sig), _margin_reference(g, sig), atol=1e-7)
     single = np.array([g.min_margin_deg_single(s) for s in sig])
@@ -42,7 +42,7 @@ def test_margins_match_scipy_reference():
 
 
 def test_margin_sign_is_eq5():
-    g = KeepOutGeometry(**PAPER)
+    g = ConeGeometry(**PAPER)
     sig = np.random.default_rng(1).uniform(-1, 1, size=(2000, 3))
     c_bn = Rotation.from_mrp(sig).as_matrix().swapaxes(-1, -2)
     lhs = np.einsum("i,nij,mj->nm", g.boresights_body[0], c_bn, g.directions_inertial)
@@ -53,7 +53,7 @@ def test_margin_sign_is_eq5():
 
 @pytest.mark.parametrize("spec", [PAPER, TWO_INSTRUMENTS])
 def test_rim_circles_lie_on_the_region_boundary(spec):
-    g = KeepOutGeometry(**spec, inflation_deg=2.0, samples=64)
+    g = ConeGeometry(**spec, inflation_deg=2.0, samples=64)
     rng = np.random.default_rng(2)
     idx = rng.integers(0, len(g._radii), 400)
     t = rng.uniform(0, 2 * np.pi, 400)
@@ -110,7 +110,7 @@ def _free_points(g, n, rng, lo=0.0, hi=1.0):
 
 @pytest.mark.parametrize("spec,seed", [(PAPER, 3), (TWO_INSTRUMENTS, 4)])
 def test_obstacle_distance_matches_brute_force(spec, seed):
-    g = KeepOutGeometry(**spec, inflation_deg=2.0)
+    g = ConeGeometry(**spec, inflation_deg=2.0)
     rng = np.random.default_rng(seed)
     for sigma in _free_points(g, 6, rng):
         q = g.closest_obstacle(sigma)
@@ -125,7 +125,7 @@ def test_obstacle_distance_matches_brute_force(spec, seed):
 
 def test_obstacle_seen_through_the_shadow_set():
     """Near |sigma| = 1 the closest region can lie across the unit sphere."""
-    g = KeepOutGeometry(**PAPER, inflation_deg=0.0)
+    g = ConeGeometry(**PAPER, inflation_deg=0.0)
     rng = np.random.default_rng(5)
     checked = 0
     for sigma in _free_points(g, 200, rng, lo=0.95, hi=0.99):
@@ -142,9 +142,110 @@ def test_obstacle_seen_through_the_shadow_set():
 
 
 def test_inside_region_is_negative():
-    g = KeepOutGeometry(**PAPER)
+    g = ConeGeometry(**PAPER)
     # Boresight pointed straight at object 2 ([-1,0,0]): 180 deg about b3.
     sigma = np.array([0.0, 0.0, 1.0])
     assert g.min_margin_deg(sigma) < 0
     q = g.closest_obstacle(sigma)
     assert q.distance < 0.0
+
+
+# --- keep-in cones ----------------------------------------------------------------------
+
+KEEP_IN = dict(  # deliberately not unit: the geometry normalises
+    axes_body=np.array([[0.0, 0.7071, 0.7071], [0.0, 0.0, -2.0]]),
+    directions_inertial=np.array([[0.2802, 0.7698, 0.5736], [0.3, -0.1, -0.9]]),
+    max_angles_deg=np.array([70.0, 45.0]),
+)
+
+
+def _keep_in_reference(sigma, cones=KEEP_IN):
+    """gamma_k - angle(a_k in inertial axes, d_k), the inertial axis from SciPy's active
+    rotation of sigma_BN (R = C_BN^T), independent of attitude_core.mrp."""
+    a = cones["axes_body"] / np.linalg.norm(cones["axes_body"], axis=1, keepdims=True)
+    d = cones["directions_inertial"]
+    d = d / np.linalg.norm(d, axis=1, keepdims=True)
+    rot = Rotation.from_mrp(sigma)
+    out = []
+    for k in range(len(a)):
+        axis_n = rot.apply(a[k])  # (N, 3)
+        ang = np.degrees(np.arccos(np.clip(axis_n @ d[k], -1.0, 1.0)))
+        out.append(cones["max_angles_deg"][k] - ang)
+    return np.stack(out, axis=-1)
+
+
+def _with_keep_in(spec=TWO_INSTRUMENTS, **kw):
+    return ConeGeometry(**spec, keep_in=KeepInCones(**KEEP_IN), **kw)
+
+
+def test_keep_in_margins_match_scipy_reference():
+    g = _with_keep_in(samples=16)
+    sig = np.random.default_rng(10).uniform(-1.2, 1.2, size=(500, 3))
+    ref = _keep_in_reference(sig)
+    assert ref.min() < 0.0 < ref.max()  # both sides of the cones are sampled
+    np.testing.assert_allclose(g.keep_in_margins_deg(sig), ref, atol=1e-7)
+    # One attitude at a time, and a leading shape kept.
+    np.testing.assert_allclose(g.keep_in_margins_deg(sig[7]), ref[7], atol=1e-7)
+    assert g.keep_in_margins_deg(sig.reshape(25, 20, 3)).shape == (25, 20, 2)
+
+
+def test_keep_in_margin_is_the_allowed_angle_minus_the_axis_angle():
+    """At the identity the body axes are the inertial axes: exact values."""
+    g = ConeGeometry(
+        np.zeros((0, 3)),
+        np.zeros(0),
+        np.zeros((0, 3)),
+        samples=16,
+        keep_in=KeepInCones(
+            np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]]),
+            np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]),
+            np.array([30.0, 30.0, 100.0]),
+        ),
+    )
+    np.testing.assert_allclose(g.keep_in_margins_deg(np.zeros(3)), [30.0, -150.0, 10.0])
+    # 90 deg about inertial z: body x points along inertial +y (SciPy: active rotation).
+    quarter = np.array([0.0, 0.0, np.tan(np.pi / 8.0)])
+    np.testing.assert_allclose(
+        Rotation.from_mrp(quarter).apply([1.0, 0.0, 0.0]), [0, 1, 0], atol=1e-15
+    )
+    np.testing.assert_allclose(g.keep_in_margins_deg(quarter), [-60.0, -60.0, 10.0], atol=1e-9)
+
+
+def test_constraint_margins_number_keep_out_pairs_then_keep_in_cones():
+    g = _with_keep_in(samples=16)
+    n_i, n_j = 2, 4
+    assert (g.n_keep_out, g.n_keep_in, g.n_constraints) == (n_i * n_j, 2, n_i * n_j + 2)
+    sig = np.random.default_rng(11).uniform(-1.0, 1.0, size=(300, 3))
+    every = g.constraint_margins_deg(sig)
+    assert every.shape == (300, n_i * n_j + 2)
+    keep_out = _margin_reference(g, sig)
+    for i in range(n_i):
+        for j in range(n_j):
+            np.testing.assert_allclose(every[:, i * n_j + j], keep_out[:, i, j], atol=1e-7)
+    np.testing.assert_allclose(every[:, n_i * n_j :], _keep_in_reference(sig), atol=1e-7)
+    # The smallest margin covers both kinds, in the array and the hot-path forms.
+    smallest = np.minimum(keep_out.min(axis=(1, 2)), _keep_in_reference(sig).min(axis=1))
+    np.testing.assert_allclose(g.min_margin_deg(sig), smallest, atol=1e-7)
+    single = np.array([g.min_margin_deg_single(s) for s in sig])
+    np.testing.assert_allclose(single, smallest, atol=1e-7)
+    # Somewhere a keep-in cone is the binding constraint.
+    assert np.any(_keep_in_reference(sig).min(axis=1) < keep_out.min(axis=(1, 2)))
+
+
+def test_keep_in_arc_margin_matches_a_dense_scipy_slerp():
+    """The closed-form smallest keep-in margin along the short eigenaxis rotation equals
+    the minimum over a dense SciPy slerp between the two attitudes."""
+    cones = {k: v[:1] for k, v in KEEP_IN.items()}
+    g = ConeGeometry(
+        np.zeros((0, 3)), np.zeros(0), np.zeros((0, 3)), samples=16, keep_in=KeepInCones(**cones)
+    )
+    rng = np.random.default_rng(12)
+    crossed = 0
+    for _ in range(40):
+        a, b = Rotation.random(2, rng=rng).as_mrp()
+        path = Slerp([0.0, 1.0], Rotation.from_mrp([a, b]))(np.linspace(0.0, 1.0, 4001))
+        dense = _keep_in_reference(path.as_mrp(), cones).min()
+        assert g.arc_min_margin_deg_single(a, b) == pytest.approx(dense, abs=2e-3)
+        ends = _keep_in_reference(np.array([a, b]), cones).min()
+        crossed += dense < min(ends, 0.0) - 1.0  # the cone left between two ends
+    assert crossed >= 3

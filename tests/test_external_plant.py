@@ -60,7 +60,7 @@ def test_attitude_run_against_the_example_bridge(mode, case, tmp_path, ros_env):
     after_s = (int(bag_run.stamps_ns[-1]) - int(bag_run.stamps_ns[k])) * 1e-9
     assert SETTLE_S - 2 * sc.dt_s <= after_s <= SETTLE_S + 2 * sc.dt_s
     # The body, measured densely on the recorded attitude, stays out of every cone.
-    margin, _ = dense_min_margin_deg(sc.keep_out(), rec.t, rec.sigma_bn, rec.omega_b)
+    margin, _ = dense_min_margin_deg(sc.cone_geometry(), rec.t, rec.sigma_bn, rec.omega_b)
     assert margin == pytest.approx(summary["min_margin_deg"]) and margin > 0.0
     clock = list(read_bag(str(out / "bag"), [CLOCK]))
     if mode == "lockstep":

@@ -142,7 +142,7 @@ def graph(tmp_path, ros_domain):
 def assert_safe_arrival(bag_run) -> None:
     run = bag_run.run
     sc = run.scenario
-    min_margin, _ = dense_min_margin_deg(sc.keep_out(), run.t, run.sigma_bn, run.omega_b)
+    min_margin, _ = dense_min_margin_deg(sc.cone_geometry(), run.t, run.sigma_bn, run.omega_b)
     assert min_margin > 0.0
     reached, _, _ = arrival_time(
         run.t,

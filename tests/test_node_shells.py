@@ -533,7 +533,7 @@ def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
     ros.init(CASE1)
     p = PlannerProbe(ros)
     path = FepfPlanner.from_scenario(scenario)
-    exact = scenario.keep_out()
+    exact = scenario.cone_geometry()
     # Measured attitudes: the start, then along the FEPF's own target path; the node's
     # answers are the core guidance's for those states (at rest: zero rate).
     n_steps = 12

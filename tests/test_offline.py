@@ -15,6 +15,8 @@ from attitude_core.trajectory import summarize
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 PAPER_T_REACH_S = {"case1": 129.0, "case2": 72.0}
 SCENARIOS = sorted(os.path.basename(p)[:-5] for p in glob.glob(f"{ROOT}/scenarios/*.yaml"))
+INFEASIBLE = ("enclosed_goal",)  # no route exists: reported infeasible up front
+FEASIBLE = [s for s in SCENARIOS if s not in INFEASIBLE]
 
 
 @pytest.fixture(scope="module")
@@ -28,7 +30,7 @@ def summaries():
     return out
 
 
-@pytest.mark.parametrize("name", SCENARIOS)
+@pytest.mark.parametrize("name", FEASIBLE)
 def test_every_scenario_reaches_goal_without_violation(summaries, name):
     run, s = summaries[name]
     assert s["reached"], s
@@ -36,7 +38,7 @@ def test_every_scenario_reaches_goal_without_violation(summaries, name):
     assert not s["planner_stuck"]
     assert s["final_attitude_error_deg"] <= run.scenario.arrival.attitude_tol_deg
     # The dense (between-step) minimum can only be at or below the sampled one.
-    sampled = run.scenario.keep_out().min_margin_deg(run.sigma_bn).min()
+    sampled = run.scenario.cone_geometry().min_margin_deg(run.sigma_bn).min()
     assert s["min_margin_deg"] <= sampled + 1e-9
 
 

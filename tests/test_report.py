@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from attitude_core.constraints import KeepOutGeometry
+from attitude_core.constraints import ConeGeometry
 from attitude_tools.report.figures import FIGURES
 from attitude_tools.report.geometry import (
     Pair,
@@ -296,7 +296,7 @@ def test_small_circle_is_a_true_circle_on_the_sphere():
 
 def test_boresight_and_mrp_surface_agree_with_the_exact_margins():
     pair = Pair("st", "obj", (1.0, 0.0, 0.0), 20.0, (0.0, -0.981, -0.196))
-    geometry = KeepOutGeometry(
+    geometry = ConeGeometry(
         np.array([pair.boresight_body]), np.array([20.0]), np.array([pair.direction_inertial])
     )
     sigma = np.random.default_rng(1).uniform(-0.6, 0.6, (50, 3))
@@ -311,3 +311,224 @@ def test_boresight_and_mrp_surface_agree_with_the_exact_margins():
     inner = verts[np.linalg.norm(verts, axis=1) < 0.95]
     # On the zero level set, to the grid's resolution (spacing 2/39 MRP ~ a few degrees).
     assert np.max(np.abs(geometry.margins_deg(inner)[:, 0, 0])) < 4.0
+
+
+# --- keep-in cones (no ROS: a bag written here, read back as attitude-report reads it) -----
+
+KEEP_IN_SCENARIO = ROOT / "scenarios" / "keep_in.yaml"
+
+
+def _eigenaxis_run(scenario_path: Path, seconds: float = 30.0, dt: float = 0.1):
+    """The straight eigenaxis slew from the scenario's start to its goal (SciPy slerp):
+    (t, sigma_bn, omega_b) sampled every ``dt``."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    from attitude_core.scenario import load_scenario
+
+    sc = load_scenario(scenario_path)
+    ends = Rotation.from_mrp(np.array([sc.initial_mrp, sc.desired_mrp]))  # active: C_NB
+    n = int(round(seconds / dt))
+    t = np.arange(n + 1) * dt
+    path = Slerp([0.0, seconds], ends)(t)
+    rate = (ends[0].inv() * ends[1]).as_rotvec() / seconds  # body axes, constant
+    return t, path.as_mrp(), np.tile(rate, (n + 1, 1))
+
+
+def _write_run_bag(bag_dir: Path, scenario_text: str, t, sigma, omega) -> None:
+    """A bag like the recorder's: state, applied torque and planner target per stamp,
+    and the scenario attached."""
+    from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+    from rclpy.serialization import serialize_message
+
+    from attitude_core import topics
+    from attitude_core.mrp import quat_from_mrp
+    from attitude_tools.bag import BagWriter
+
+    def stamped(msg, ns, frame):
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 10**9)
+        msg.header.frame_id = frame
+        return msg
+
+    with BagWriter(str(bag_dir)) as bag:
+        for name in (
+            topics.ATTITUDE,
+            topics.ANGULAR_VELOCITY,
+            topics.APPLIED_TORQUE,
+            topics.TARGET_MRP,
+            topics.TARGET_RATE,
+        ):
+            bag.add_topic(name, topics.topic(name).type_name)
+        quats = quat_from_mrp(sigma)
+        for k in range(len(t)):
+            ns = int(round(t[k] * 1e9))
+            q = stamped(QuaternionStamped(), ns, "inertial")
+            q.quaternion.x, q.quaternion.y, q.quaternion.z, q.quaternion.w = map(float, quats[k])
+            w = stamped(Vector3Stamped(), ns, "body")
+            w.vector.x, w.vector.y, w.vector.z = map(float, omega[k])
+            target = stamped(Vector3Stamped(), ns, "inertial")
+            target.vector.x, target.vector.y, target.vector.z = map(float, sigma[k])
+            torque = stamped(WrenchStamped(), ns, "body")
+            target_rate = stamped(Vector3Stamped(), ns, "target")
+            log = 1_700_000_000_000_000_000 + ns
+            for name, msg in (
+                (topics.ATTITUDE, q),
+                (topics.ANGULAR_VELOCITY, w),
+                (topics.APPLIED_TORQUE, torque),
+                (topics.TARGET_MRP, target),
+                (topics.TARGET_RATE, target_rate),
+            ):
+                bag.write(name, serialize_message(msg), log)
+        bag.add_attachment("scenario.yaml", scenario_text.encode(), "application/yaml")
+
+
+@pytest.fixture(scope="module")
+def keep_in_run(tmp_path_factory):
+    """The keep_in scenario's direct eigenaxis slew (which leaves the sun sensor's cone),
+    recorded to a bag and rebuilt by the report's loader."""
+    from attitude_tools.report.data import load_run
+
+    run_dir = tmp_path_factory.mktemp("keep_in_report") / "run"
+    run_dir.mkdir()
+    t, sigma, omega = _eigenaxis_run(KEEP_IN_SCENARIO)
+    _write_run_bag(run_dir / "bag", KEEP_IN_SCENARIO.read_text(encoding="utf-8"), t, sigma, omega)
+    return load_run(str(run_dir))
+
+
+def _keep_in_reference(run, k: int = 0) -> np.ndarray:
+    """max_angle - angle(C_BN^T a, d) of the recorded attitudes, from SciPy's rotation."""
+    from scipy.spatial.transform import Rotation
+
+    sc = run.scenario
+    axes = Rotation.from_mrp(np.array(run.run.sigma_bn)).apply(np.array(sc.keep_in_axes_body[k]))
+    d = sc.keep_in_directions_inertial[k]
+    return sc.keep_in_max_angles_deg[k] - np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
+
+
+def _unit_from_ra_dec(ra, dec) -> np.ndarray:
+    ra, dec = np.radians(ra), np.radians(dec)
+    return np.stack([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], -1)
+
+
+def _with_gid(fig, gid):
+    return [a for a in fig.findobj() if a.get_gid() == gid]
+
+
+def test_keep_in_run_summary_covers_the_keep_in_cone(keep_in_run):
+    sc = keep_in_run.scenario
+    assert sc.keep_in_names == ("sun_sensor",)  # the scenario attached to the bag
+    reference = _keep_in_reference(keep_in_run)
+    assert reference[0] > 5.0 and reference[-1] > 5.0 and reference.min() < -5.0  # leaves it
+    per = keep_in_run.summary["min_margin_deg_per_pair"]
+    assert list(per) == list(sc.constraint_names)
+    assert per["keep_in/sun_sensor"] == pytest.approx(reference.min(), abs=1e-9)
+    assert keep_in_run.summary["min_margin_deg"] <= reference.min() + 1e-9  # dense: all of them
+
+
+def test_keep_in_margin_figure_plots_the_geometry_margin_of_the_recorded_attitudes(keep_in_run):
+    import matplotlib.pyplot as plt
+
+    from attitude_tools.report import figures
+
+    ctx = figures._Context([keep_in_run], mrp_grid=24)
+    assert [c.key for c in ctx.keep_ins] == ["keep_in/sun_sensor"]
+    fig = figures.fig_margin(ctx)
+    try:
+        (line,) = _with_gid(fig, "keep_in/sun_sensor/margin")
+        assert line.get_label() == "keep_in/sun_sensor"
+        np.testing.assert_allclose(line.get_xdata(), keep_in_run.run.t)
+        np.testing.assert_allclose(line.get_ydata(), _keep_in_reference(keep_in_run), atol=1e-9)
+        assert "keep_in/sun_sensor" in [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    finally:
+        plt.close(fig)
+    # Compared with another run: a keep-in panel with both runs' series.
+    other = figures._Context([keep_in_run, keep_in_run], mrp_grid=24)
+    fig = figures.fig_margin(other)
+    try:
+        lines = _with_gid(fig, "keep_in/sun_sensor/margin")
+        assert len(lines) == 2
+        for line in lines:
+            np.testing.assert_allclose(line.get_ydata(), _keep_in_reference(keep_in_run), atol=1e-9)
+        assert "keep_in/sun_sensor (keep-in)" in [ax.get_title() for ax in fig.axes]
+    finally:
+        plt.close(fig)
+
+
+def test_keep_in_cone_and_axis_track_on_the_sky(keep_in_run):
+    import matplotlib.pyplot as plt
+    from scipy.spatial.transform import Rotation
+
+    from attitude_tools.report import figures
+
+    sc = keep_in_run.scenario
+    d, gamma = sc.keep_in_directions_inertial[0], 70.0
+    ctx = figures._Context([keep_in_run], mrp_grid=24)
+    for build in (figures.fig_keepout_inertial, figures.fig_trajectory_boresight):
+        fig = build(ctx)
+        try:
+            (cone,) = _with_gid(fig, "keep_in/sun_sensor/cone")
+            assert cone.get_linestyle() == "--" and cone.get_color() == "tab:green"
+            ra, dec = np.asarray(cone.get_xdata()), np.asarray(cone.get_ydata())
+            v = _unit_from_ra_dec(ra[np.isfinite(ra)], dec[np.isfinite(dec)])
+            angles = np.degrees(np.arccos(np.clip(v @ d, -1.0, 1.0)))
+            np.testing.assert_allclose(angles, gamma, atol=1e-9)  # the cone's rim
+        finally:
+            plt.close(fig)
+    fig = figures.fig_trajectory_boresight(ctx)
+    try:
+        assert len(fig.axes) == 2  # the star tracker's panel and the sun sensor's
+        (track,) = _with_gid(fig, "keep_in/sun_sensor/axis")
+        ra, dec = np.asarray(track.get_xdata()), np.asarray(track.get_ydata())
+        drawn = _unit_from_ra_dec(ra[np.isfinite(ra)], dec[np.isfinite(dec)])
+        axis = np.array(sc.keep_in_axes_body[0])
+        expected = Rotation.from_mrp(np.array(keep_in_run.run.sigma_bn)).apply(axis)
+        np.testing.assert_allclose(drawn, expected, atol=1e-9)
+        outside = np.degrees(np.arccos(np.clip(drawn @ d, -1.0, 1.0))) > gamma
+        assert outside.any() and not outside[0] and not outside[-1]
+    finally:
+        plt.close(fig)
+
+
+def test_keep_in_boundary_in_mrp_space(keep_in_run):
+    import matplotlib.pyplot as plt
+
+    from attitude_tools.report import figures
+    from attitude_tools.report.geometry import keep_ins_of
+
+    (cone,) = keep_ins_of([keep_in_run.scenario])
+    triangles = mrp_surface(cone, n=32)
+    verts = triangles.reshape(-1, 3)
+    assert np.all(np.linalg.norm(verts, axis=1) <= 1.0 + 1e-9)
+    inner = verts[np.linalg.norm(verts, axis=1) < 0.95]
+    # On the keep-in cone's rim, to the grid's resolution (spacing 2/31 MRP).
+    assert np.max(np.abs(_keep_in_reference_at(keep_in_run.scenario, inner))) < 6.0
+    fig = figures.fig_keepout_mrp(figures._Context([keep_in_run], mrp_grid=24))
+    try:
+        assert len(_with_gid(fig, "keep_in/sun_sensor/surface")) == 1
+    finally:
+        plt.close(fig)
+
+
+def _keep_in_reference_at(sc, sigma) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    axes = Rotation.from_mrp(sigma).apply(np.array(sc.keep_in_axes_body[0]))
+    d = sc.keep_in_directions_inertial[0]
+    return sc.keep_in_max_angles_deg[0] - np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
+
+
+@pytest.mark.slow
+def test_keep_in_report_writes_the_cone_into_figures_table_and_summary(keep_in_run, tmp_path):
+    from attitude_tools.report.cli import write_report
+
+    out = Path(write_report([keep_in_run], str(tmp_path / "report"), mrp_grid=24))
+    for name in FIGURES:
+        assert_valid_figure(out / name)
+    doc = json.loads((out / "summary.json").read_text())
+    shown = doc["runs"][0]["summary"]["min_margin_deg_per_pair"]["keep_in/sun_sensor"]
+    assert shown == pytest.approx(_keep_in_reference(keep_in_run).min(), abs=1e-9)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    cells = summary_cells(page)
+    assert cells["min_margin_deg_per_pair/keep_in/sun_sensor"] == [(shown, format_value(shown))]
+    assert "keep-in cones: axis (body), direction (inertial), largest angle" in page
+    assert "sun_sensor: [0, 0.7071, 0.7071]" in page
+    assert 'class="num bad" data-key="min_margin_deg_per_pair/keep_in/sun_sensor"' in page

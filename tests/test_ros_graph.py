@@ -89,7 +89,7 @@ def test_lockstep_run_arrives_without_violation_from_the_bag_alone(paper_case):
     assert reached and t_reach < scenario.sim_time_s
     statuses = [m.msg.data for m in read_bag(bag, [PLANNER_STATUS])]
     assert statuses[0] == PlannerStatus.TRACKING and PlannerStatus.ARRIVED in statuses
-    min_margin, _ = dense_min_margin_deg(scenario.keep_out(), run.t, run.sigma_bn, run.omega_b)
+    min_margin, _ = dense_min_margin_deg(scenario.cone_geometry(), run.t, run.sigma_bn, run.omega_b)
     assert min_margin > 0.0
     # The bag runs on simulated time: contiguous stamps k dt, /clock equal to them.
     dt_ns = round(scenario.dt_s * 1e9)
@@ -216,7 +216,7 @@ def test_realtime_run_steps_on_the_wall_clock(tmp_path, ros_domain):
         body.step(run.torque_b[k], sc.dt_s)
         np.testing.assert_allclose(body.omega_b, run.omega_b[k + 1], atol=1e-12)
         np.testing.assert_allclose(principal(body.sigma_bn), run.sigma_bn[k + 1], atol=1e-9)
-    min_margin, _ = dense_min_margin_deg(sc.keep_out(), run.t, run.sigma_bn, run.omega_b)
+    min_margin, _ = dense_min_margin_deg(sc.cone_geometry(), run.t, run.sigma_bn, run.omega_b)
     assert min_margin > 0.0
 
 
@@ -335,6 +335,6 @@ def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domai
     assert list(read_bag(str(out / "bag"), [CLOCK])) == []
     assert np.all(np.diff(bag_run.stamps_ns) > 0)
     min_margin, _ = dense_min_margin_deg(
-        load_scenario(scenario_path).keep_out(), run.t, run.sigma_bn, run.omega_b
+        load_scenario(scenario_path).cone_geometry(), run.t, run.sigma_bn, run.omega_b
     )
     assert min_margin > 0.0

@@ -6,7 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scipy.spatial.transform import Rotation, Slerp
 
+from attitude_core.constraints import ConeGeometry, KeepInCones
 from attitude_core.mrp import shadow
 from attitude_core.scenario import (
     ArrivalConfig,
@@ -14,7 +16,9 @@ from attitude_core.scenario import (
     ScenarioError,
     flatten_parameters,
     load_scenario,
+    loads_scenario,
     parse_scenario,
+    scenario_yaml,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,14 +81,14 @@ def test_all_scenario_files_present():
 def _straight_line_min_margin(sc, n=2001):
     t = np.linspace(0.0, 1.0, n)[:, None]
     path = sc.initial_mrp + t * (sc.desired_mrp - sc.initial_mrp)
-    return float(sc.keep_out().min_margin_deg(path).min())
+    return float(sc.cone_geometry().min_margin_deg(path).min())
 
 
 @pytest.mark.parametrize('path', SCENARIO_FILES, ids=lambda p: p.stem)
 def test_scenario_file_loads_and_is_feasible(path):
     sc = load_scenario(path)
     assert sc.name == path.stem
-    geometry = sc.keep_out()
+    geometry = sc.cone_geometry()
     need = 0.0 if path.stem in PAPER_CASES else 5.0
     for sigma in (sc.initial_mrp, sc.desired_mrp):
         margin = float(geometry.min_margin_deg(sigma))
@@ -151,10 +155,10 @@ def test_arrays_are_read_only():
 
 def test_keep_out_uses_planner_samples_and_inflation():
     sc = load_scenario(SCENARIOS / 'case1.yaml')
-    g = sc.keep_out(inflation_deg=2.0)
+    g = sc.cone_geometry(inflation_deg=2.0)
     assert g.samples == sc.planner.obstacle_samples == 180
     assert g.inflation_deg == 2.0
-    assert sc.keep_out(samples=32).samples == 32
+    assert sc.cone_geometry(samples=32).samples == 32
 
 
 def _base_params():
@@ -207,6 +211,9 @@ def test_parse_scenario_accepts_nested_and_dotted_names():
             1.0e-4,
             10.0,
             180,
+            'target',
+            True,
+            4096,
         )
     )
     assert nested.source == '<dict>'
@@ -582,3 +589,324 @@ def test_base_params_are_valid(tmp_path):
     path = tmp_path / 's.yaml'
     path.write_text(_dump(_base_params()))
     assert load_scenario(path).name == 'base'
+
+
+# --- keep-in cones ----------------------------------------------------------------------
+
+_SUN = [0.2802, 0.7698, 0.5736]  # the keep_in.yaml Sun (RA 70 deg, Dec 35 deg)
+_KI = 'keep_in.sun_sensor'
+
+
+def _with_keep_in(params, **cone):
+    """The base scenario with the sun sensor of scenarios/keep_in.yaml (start 13.0 deg,
+    goal 11.1 deg inside its 70 deg cone); ``cone`` overrides its keys."""
+    sensor = {'axis_body': [0.0, 0.7071, 0.7071], 'direction_inertial': _SUN, 'max_angle_deg': 70.0}
+    sensor.update(cone)
+    params['keep_in'] = {'names': ['sun_sensor'], 'sun_sensor': sensor}
+    return params
+
+
+def _keep_in(transform=lambda p: p, **cone):
+    return lambda params: transform(_with_keep_in(params, **cone))
+
+
+def _angle_deg(u, v):
+    u, v = np.asarray(u, float), np.asarray(v, float)
+    return float(
+        np.degrees(np.arccos(np.clip(u @ v / np.linalg.norm(u) / np.linalg.norm(v), -1, 1)))
+    )
+
+
+def test_keep_in_scenario_file_loads_with_its_cone():
+    sc = load_scenario(SCENARIOS / 'keep_in.yaml')
+    assert sc.keep_in_names == ('sun_sensor',)
+    np.testing.assert_allclose(
+        sc.keep_in_axes_body, [[0.0, np.sqrt(0.5), np.sqrt(0.5)]], atol=1e-12
+    )
+    np.testing.assert_allclose(np.linalg.norm(sc.keep_in_directions_inertial, axis=1), 1.0)
+    np.testing.assert_array_equal(sc.keep_in_max_angles_deg, [70.0])
+    # The keep-in direction is the Sun, which is also a keep-out bright object.
+    sun = sc.bright_object_names.index('sun')
+    np.testing.assert_allclose(sc.keep_in_directions_inertial[0], sc.directions_inertial[sun])
+    assert sc.constraint_names == (
+        'star_tracker/object_1',
+        'star_tracker/object_2',
+        'star_tracker/object_3',
+        'star_tracker/sun',
+        'keep_in/sun_sensor',
+    )
+    g = sc.cone_geometry()
+    assert (g.n_keep_out, g.n_keep_in, g.n_constraints) == (4, 1, len(sc.constraint_names))
+    for a in (sc.keep_in_axes_body, sc.keep_in_directions_inertial, sc.keep_in_max_angles_deg):
+        with pytest.raises(ValueError):
+            a[0] = 1.0
+
+
+def test_keep_in_cone_matters_in_the_keep_in_scenario():
+    """Start and goal inside the sensor's cone by >= 5 deg, the direct eigenaxis rotation
+    takes the Sun out of it, and a route round it exists (two eigenaxis legs)."""
+    sc = load_scenario(SCENARIOS / 'keep_in.yaml')
+    # Writable copies: SciPy refuses the scenario's read-only arrays.
+    a, d, gamma = np.array(sc.keep_in_axes_body[0]), sc.keep_in_directions_inertial[0], 70.0
+    for sigma in (sc.initial_mrp, sc.desired_mrp):
+        inertial_axis = Rotation.from_mrp(np.array(sigma)).apply(a)
+        assert gamma - _angle_deg(inertial_axis, d) >= 5.0
+        np.testing.assert_allclose(
+            sc.cone_geometry().keep_in_margins_deg(sigma), [gamma - _angle_deg(inertial_axis, d)]
+        )
+    # The direct rotation, sampled (SciPy slerp): the sensor axis leaves the cone.
+    ends = Rotation.from_mrp(np.array([sc.initial_mrp, sc.desired_mrp]))
+    path = Slerp([0.0, 1.0], ends)(np.linspace(0.0, 1.0, 2001))
+    worst = gamma - max(_angle_deg(v, d) for v in path.apply(a))
+    assert worst < -5.0
+    keep_in_only = ConeGeometry(
+        np.zeros((0, 3)),
+        np.zeros(0),
+        np.zeros((0, 3)),
+        samples=16,
+        keep_in=KeepInCones(sc.keep_in_axes_body, sc.keep_in_directions_inertial, [gamma]),
+    )
+    closed_form = keep_in_only.arc_min_margin_deg_single(sc.initial_mrp, sc.desired_mrp)
+    assert closed_form == pytest.approx(worst, abs=0.01)
+    # Through the waypoint named in the file, every constraint holds with >= 11 deg.
+    geometry = sc.cone_geometry(samples=16)
+    waypoint = np.array([-0.38, -0.73, -0.39])
+    legs = (
+        geometry.arc_min_margin_deg_single(sc.initial_mrp, waypoint),
+        geometry.arc_min_margin_deg_single(waypoint, sc.desired_mrp),
+    )
+    assert min(legs) >= 11.0
+
+
+def test_no_keep_in_means_empty_arrays_and_keep_out_names_only():
+    sc = parse_scenario(_base_params())
+    assert sc.keep_in_names == ()
+    assert sc.keep_in_axes_body.shape == (0, 3)
+    assert sc.keep_in_directions_inertial.shape == (0, 3)
+    assert sc.keep_in_max_angles_deg.shape == (0,)
+    assert sc.constraint_names == (
+        'star_tracker/object_1',
+        'star_tracker/object_2',
+        'star_tracker/object_3',
+    )
+    g = sc.cone_geometry()
+    assert g.n_keep_in == 0 and g.n_constraints == 3
+    sigma = np.array([[0.1, -0.2, 0.3], [0.0, 0.0, 0.25]])
+    np.testing.assert_array_equal(
+        g.constraint_margins_deg(sigma), g.margins_deg(sigma).reshape(2, 3)
+    )
+
+
+def test_keep_in_geometry_and_names_follow_the_file_order():
+    params = _base_params()
+    params['keep_in'] = {
+        'names': ['sun_sensor', 'antenna'],
+        'sun_sensor': {
+            'axis_body': [0.0, 0.7071, 0.7071],
+            'direction_inertial': _SUN,
+            'max_angle_deg': 70.0,
+        },
+        'antenna': {
+            'axis_body': [0.0, 0.0, -1.0],
+            'direction_inertial': [0.0, 0.0, -1.0],
+            'max_angle_deg': 170.0,
+        },
+    }
+    sc = parse_scenario(params)
+    assert sc.keep_in_names == ('sun_sensor', 'antenna')
+    assert sc.constraint_names[3:] == ('keep_in/sun_sensor', 'keep_in/antenna')
+    sigma = np.random.default_rng(3).uniform(-0.5, 0.5, (20, 3))
+    margins = sc.cone_geometry().constraint_margins_deg(sigma)
+    for k, (axis, direction, gamma) in enumerate(
+        (
+            (params['keep_in']['sun_sensor']['axis_body'], _SUN, 70.0),
+            ([0.0, 0.0, -1.0], [0.0, 0.0, -1.0], 170.0),
+        )
+    ):
+        inertial = Rotation.from_mrp(sigma).apply(np.array(axis) / np.linalg.norm(axis))
+        expected = [gamma - _angle_deg(v, direction) for v in inertial]
+        np.testing.assert_allclose(margins[:, 3 + k], expected, atol=1e-9)
+
+
+def test_an_empty_keep_in_list_means_none_as_the_nodes_see_it():
+    """rcl leaves ``keep_in.names: []`` unset, so a node sees no keep-in cone; the loader
+    agrees. The required lists still refuse an empty list."""
+    params = _base_params()
+    params['keep_in'] = {'names': []}
+    sc = parse_scenario(params)
+    assert sc.keep_in_names == () and sc.cone_geometry().n_keep_in == 0
+    params['bright_objects']['names'] = []
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(params)
+    assert err.value.key == 'bright_objects.names' and 'non-empty list' in err.value.reason
+
+
+def test_keep_in_survives_the_scenario_yaml_round_trip():
+    """Campaign draws and the recorder write dotted values with scenario_yaml and read
+    them back with loads_scenario."""
+    flat = flatten_parameters(_with_keep_in(_base_params()))
+    sc = loads_scenario(scenario_yaml(flat))
+    direct = parse_scenario(flat)
+    assert sc.keep_in_names == direct.keep_in_names == ('sun_sensor',)
+    for name in ('keep_in_axes_body', 'keep_in_directions_inertial', 'keep_in_max_angles_deg'):
+        np.testing.assert_array_equal(getattr(sc, name), getattr(direct, name), err_msg=name)
+    text = scenario_yaml(flat)
+    assert 'keep_in:' in text and 'max_angle_deg: 70.0' in text
+    # Without keep-in cones the text has no keep_in key (an empty list is not a ROS 2 value).
+    assert 'keep_in' not in scenario_yaml(flatten_parameters(_base_params()))
+
+
+def test_start_outside_a_keep_in_cone_is_refused_naming_the_key_the_cone_and_the_angle(tmp_path):
+    params = _with_keep_in(_base_params())
+    params['initial_mrp'] = [0.0, 0.0, 0.5]  # 106 deg about z: outside every keep-out cone
+    path = tmp_path / 's.yaml'
+    path.write_text(_dump(params))
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(path)
+    off_axis = _angle_deg(
+        Rotation.from_mrp([0.0, 0.0, 0.5]).apply([0.0, np.sqrt(0.5), np.sqrt(0.5)]), _SUN
+    )
+    assert off_axis > 70.0
+    assert err.value.key == 'initial_mrp'
+    assert 'outside the keep-in cone keep_in.sun_sensor' in err.value.reason
+    assert f'{off_axis:.1f} deg from the direction' in err.value.reason
+    assert f'margin {70.0 - off_axis:.1f} deg' in err.value.reason
+    # The same attitude as the goal is refused on desired_mrp.
+    params = _with_keep_in(_base_params())
+    params['desired_mrp'] = [0.0, 0.0, 0.5]
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(params)
+    assert err.value.key == 'desired_mrp' and 'keep_in.sun_sensor' in err.value.reason
+
+
+def test_keep_in_margin_just_positive_is_accepted():
+    """The refusal is at margin <= 0: a cone a little wider than the start's angle loads."""
+    off_axis = _angle_deg(
+        Rotation.from_mrp([0.0, 0.0, 0.5]).apply([0.0, np.sqrt(0.5), np.sqrt(0.5)]), _SUN
+    )
+    params = _with_keep_in(_base_params(), max_angle_deg=round(off_axis + 0.05, 3))
+    params['initial_mrp'] = [0.0, 0.0, 0.5]
+    sc = parse_scenario(params)
+    assert 0.0 < float(sc.cone_geometry().keep_in_margins_deg(sc.initial_mrp)[0]) < 0.1
+
+
+KEEP_IN_MALFORMED = [
+    (
+        'keep_in_axis_not_unit',
+        _keep_in(axis_body=[0.0, 1.0, 1.0]),
+        f'{_KI}.axis_body',
+        'must be a unit vector (norm within 5% of 1), got norm 1.414',
+    ),
+    ('keep_in_axis_zero', _keep_in(axis_body=[0.0, 0.0, 0.0]), f'{_KI}.axis_body', 'non-zero'),
+    (
+        'keep_in_direction_not_unit',
+        _keep_in(direction_inertial=[0.5, 0.0, 0.0]),
+        f'{_KI}.direction_inertial',
+        'got norm 0.5',
+    ),
+    (
+        'keep_in_direction_short',
+        _keep_in(direction_inertial=[0.0, 1.0]),
+        f'{_KI}.direction_inertial',
+        'expected a list of 3 floats, got 2 elements',
+    ),
+    (
+        'keep_in_angle_0',
+        _keep_in(max_angle_deg=0.0),
+        f'{_KI}.max_angle_deg',
+        'must be in (0, 180), got 0.0',
+    ),
+    (
+        'keep_in_angle_180',
+        _keep_in(max_angle_deg=180.0),
+        f'{_KI}.max_angle_deg',
+        'must be in (0, 180), got 180.0',
+    ),
+    (
+        'keep_in_angle_negative',
+        _keep_in(max_angle_deg=-10.0),
+        f'{_KI}.max_angle_deg',
+        'must be in (0, 180), got -10.0',
+    ),
+    (
+        'keep_in_angle_int',
+        _keep_in(max_angle_deg=70),
+        f'{_KI}.max_angle_deg',
+        'expected float, got integer 70; write it as a YAML float, e.g. 70.0',
+    ),
+    (
+        'keep_in_without_axis',
+        _keep_in(_delete(f'{_KI}.axis_body')),
+        f'{_KI}.axis_body',
+        'missing required key',
+    ),
+    (
+        'keep_in_without_angle',
+        _keep_in(_delete(f'{_KI}.max_angle_deg')),
+        f'{_KI}.max_angle_deg',
+        'missing required key',
+    ),
+    (
+        'keep_in_listed_without_keys',
+        _set('keep_in.names', ['sun_sensor']),
+        f'{_KI}.axis_body',
+        'missing required key',
+    ),
+    (
+        'keep_in_unknown_key',
+        _keep_in(_set(f'{_KI}.max_angle', 60.0)),
+        f'{_KI}.max_angle',
+        f"unknown key; did you mean '{_KI}.max_angle_deg'?",
+    ),
+    (
+        'keep_in_typo_in_axis',
+        _keep_in(_set(f'{_KI}.axis_bdy', [0.0, 0.0, 1.0])),
+        f'{_KI}.axis_bdy',
+        f"did you mean '{_KI}.axis_body'?",
+    ),
+    (
+        'keep_in_not_listed',
+        _keep_in(_set('keep_in.antenna.max_angle_deg', 60.0)),
+        'keep_in.antenna.max_angle_deg',
+        "unknown key; 'antenna' is not listed in keep_in.names",
+    ),
+    (
+        'keep_in_keys_without_names',
+        _set(f'{_KI}.max_angle_deg', 60.0),
+        f'{_KI}.max_angle_deg',
+        "'sun_sensor' is not listed in keep_in.names",
+    ),
+    (
+        'keep_in_empty_names_with_a_cone',
+        _keep_in(_set('keep_in.names', [])),
+        f'{_KI}.axis_body',
+        "unknown key; 'sun_sensor' is not listed in keep_in.names",
+    ),
+    (
+        'keep_in_duplicate_names',
+        _keep_in(_set('keep_in.names', ['sun_sensor', 'sun_sensor'])),
+        'keep_in.names',
+        "duplicate names ['sun_sensor']",
+    ),
+    (
+        'keep_in_bad_name',
+        _set('keep_in.names', ['sun-sensor']),
+        'keep_in.names',
+        "invalid name 'sun-sensor'",
+    ),
+    (
+        'keep_in_names_not_a_list',
+        _set('keep_in.names', 'sun_sensor'),
+        'keep_in.names',
+        'expected a non-empty list of names',
+    ),
+]
+
+
+@pytest.mark.parametrize(
+    'transform,key,reason',
+    [c[1:] for c in KEEP_IN_MALFORMED],
+    ids=[c[0] for c in KEEP_IN_MALFORMED],
+)
+def test_malformed_keep_in_is_refused_naming_the_key(tmp_path, transform, key, reason):
+    test_malformed_scenario_is_refused(tmp_path, transform, key, reason)

@@ -123,6 +123,9 @@ def test_diagnostics_values_are_in_keys_order():
         "goal_error_deg",
         "speed_factor",
         "accel_derating",
+        "route_rotation_deg",
+        "route_waypoints",
+        "reason",
     )
     assert all(isinstance(v, str) for _, v in values)
     assert dict(values)["status"] == "tracking"

@@ -51,7 +51,7 @@ def check_bag(out: Path, scenario_path: Path) -> dict:
     act = sc.actuators
     assert act.max_torque_nm is not None and act.max_rate_rad_s is not None
     rec = run_from_bag(str(out / "bag")).run
-    margin, _ = dense_min_margin_deg(sc.keep_out(), rec.t, rec.sigma_bn, rec.omega_b)
+    margin, _ = dense_min_margin_deg(sc.cone_geometry(), rec.t, rec.sigma_bn, rec.omega_b)
     assert margin > 0.0 and margin == pytest.approx(summary["min_margin_deg"])
     assert summary["reached"] and summary["failure"] is None
     arrived = np.flatnonzero(rec.planner_status == PlannerStatus.ARRIVED.code)

@@ -74,4 +74,6 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         status,
         step_s,
         time.perf_counter() - wall0,
+        guidance.reason,
+        guidance.route_rotation_deg,
     )

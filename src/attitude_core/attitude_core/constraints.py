@@ -1,9 +1,24 @@
-"""Keep-out constraint geometry (paper eq. 5) and its obstacles in MRP space.
+"""Cone constraint geometry (paper eq. 5) and its obstacles in MRP space.
 
 An instrument ``i`` (body boresight ``s_i``, half-angle ``beta_i``) violates the
 keep-out cone of bright object ``j`` (inertial direction ``c_j``) when
 ``s_i^T C_BN(sigma) c_j >= cos(beta_i)``. The *margin* is the angle between the
 boresight (in inertial axes) and the object minus ``beta_i``; positive is safe.
+
+A keep-in cone ``k`` (body axis ``a_k``, inertial direction ``d_k``, largest angle
+``gamma_k``: a sun sensor keeping the Sun in view, a solar array within an incidence
+angle) is the mirror image: its margin is ``gamma_k`` minus the angle between the axis
+(in inertial axes) and ``d_k``. Its forbidden region is the outside of the cone, whose
+boundary is the same kind of rim as a keep-out cone's, so both share the MRP-space
+obstacles below. The constraints are numbered keep-out pairs first (``i n_j + j``),
+then keep-in cones (``n_i n_j + k``).
+
+Along an eigenaxis rotation (the short way between two attitudes, inertial axis ``e``,
+angle ``theta``) a body vector's inertial direction turns on a small circle about
+``e``, so its cosine to a fixed direction is ``A + B cos(phi) + C sin(phi)``,
+``phi in [0, theta]``: :func:`arc_cos_extremes` gives the extremes in closed form and
+:meth:`ConeGeometry.arc_min_margin_deg_single` the exact smallest margin along the
+whole rotation, not only at its ends.
 
 MRP-space obstacles. All attitudes that point boresight ``s`` along one inertial
 direction ``b`` form a great circle on the unit-quaternion sphere (rotations about
@@ -29,9 +44,17 @@ import numpy.typing as npt
 
 from .mrp import Vec3, Vec3Like, dcm_from_mrp, dcm_rows_from_mrp, quat_mul_sf
 
-__all__ = ["KeepOutGeometry", "ObstacleQuery", "margins_deg_from_dcm"]
+__all__ = [
+    "ConeGeometry",
+    "KeepInCones",
+    "ObstacleQuery",
+    "margins_deg_from_dcm",
+    "arc_cos_extremes",
+    "short_rotation_single",
+]
 
 _Floats = npt.NDArray[np.float64]
+_TWO_PI = 2.0 * math.pi
 
 
 def _unit_rows(v: npt.ArrayLike) -> _Floats:
@@ -65,35 +88,117 @@ def margins_deg_from_dcm(
     return margins
 
 
+def arc_cos_extremes(
+    v0: _Floats, axis: _Floats, angle: _Floats, c: _Floats
+) -> tuple[_Floats, _Floats]:
+    """Largest and smallest ``c . v(phi)`` over ``phi in [0, angle]``, where ``v(phi)`` is
+    the unit vector ``v0`` turned actively by ``phi`` about the unit vector ``axis``.
+
+    Broadcasts over leading axes (``v0``, ``axis``, ``c``: ``(..., 3)``; ``angle``:
+    ``(...)``). ``c . v(phi) = A + B cos(phi) + C sin(phi)`` with ``A = (e.v0)(e.c)``,
+    ``B = c.v0 - A``, ``C = c.(e x v0)``; its extremes are ``A +- sqrt(B^2 + C^2)`` where
+    ``phi = atan2(C, B)`` (``+ pi``) falls inside the interval, else at an end.
+    """
+    ev = np.einsum("...i,...i->...", axis, v0)
+    a = ev * np.einsum("...i,...i->...", axis, c)
+    at_start = np.einsum("...i,...i->...", c, v0)
+    b = at_start - a
+    cc = np.einsum("...i,...i->...", c, np.cross(axis, v0))
+    at_end = a + b * np.cos(angle) + cc * np.sin(angle)
+    r = np.hypot(b, cc)
+    phi = np.mod(np.arctan2(cc, b), 2.0 * np.pi)
+    phi_min = np.mod(phi + np.pi, 2.0 * np.pi)
+    hi = np.maximum(at_start, at_end)
+    lo = np.minimum(at_start, at_end)
+    hi = np.where(phi <= angle, a + r, hi)
+    lo = np.where(phi_min <= angle, a - r, lo)
+    return np.clip(hi, -1.0, 1.0), np.clip(lo, -1.0, 1.0)
+
+
+def short_rotation_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> tuple[Vec3, float]:
+    """Inertial unit axis and angle (rad, ``[0, pi]``) of the short eigenaxis rotation
+    from attitude ``sigma_a`` to ``sigma_b`` (both ``sigma_BN``): a body vector's inertial
+    direction at ``b`` is the one at ``a`` turned actively by the angle about the axis.
+    The axis is ``(0, 0, 0)`` for equal attitudes."""
+    a1, a2, a3 = float(sigma_a[0]), float(sigma_a[1]), float(sigma_a[2])
+    b1, b2, b3 = float(sigma_b[0]), float(sigma_b[1]), float(sigma_b[2])
+    sa = a1 * a1 + a2 * a2 + a3 * a3
+    sb = b1 * b1 + b2 * b2 + b3 * b3
+    # Unscaled Euler parameters (1 - s.s, 2 s) of each; q_B/A = q_B (x) q_A^* (passive).
+    a0, b0 = 1.0 - sa, 1.0 - sb
+    x1, x2, x3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
+    y1, y2, y3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
+    w = a0 * b0 + x1 * y1 + x2 * y2 + x3 * y3
+    v1 = a0 * y1 - b0 * x1 - (x2 * y3 - x3 * y2)
+    v2 = a0 * y2 - b0 * x2 - (x3 * y1 - x1 * y3)
+    v3 = a0 * y3 - b0 * x3 - (x1 * y2 - x2 * y1)
+    if w < 0.0:
+        w, v1, v2, v3 = -w, -v1, -v2, -v3
+    n = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
+    if n == 0.0:
+        return (0.0, 0.0, 0.0), 0.0
+    angle = 2.0 * math.atan2(n, w)
+    # The eigenaxis has the same components in A and B; in inertial axes e_N = C_AN^T e_A.
+    r0, r1, r2 = dcm_rows_from_mrp(sigma_a)
+    e1, e2, e3 = v1 / n, v2 / n, v3 / n
+    return (
+        (
+            e1 * r0[0] + e2 * r1[0] + e3 * r2[0],
+            e1 * r0[1] + e2 * r1[1] + e3 * r2[1],
+            e1 * r0[2] + e2 * r1[2] + e3 * r2[2],
+        ),
+        angle,
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class KeepInCones:
+    """Keep-in cones: body axis ``a_k`` within ``max_angles_deg[k]`` of inertial ``d_k``.
+
+    ``axes_body`` and ``directions_inertial`` are ``(n_k, 3)`` (normalised by the
+    geometry), ``max_angles_deg`` is ``(n_k,)``.
+    """
+
+    axes_body: _Floats
+    directions_inertial: _Floats
+    max_angles_deg: _Floats
+
+    @classmethod
+    def none(cls) -> KeepInCones:
+        return cls(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0))
+
+
 @dataclass(slots=True)
 class ObstacleQuery:
-    """Result of :meth:`KeepOutGeometry.closest_obstacle`.
+    """Result of :meth:`ConeGeometry.closest_obstacle`.
 
     ``distance`` is the Euclidean MRP-space distance from ``sigma`` to the closest
     keep-out region boundary (negative inside a region); ``direction`` is the unit
     vector pointing from ``sigma`` into that region (the paper's ``sigma_c_hat``:
     towards the closest boundary point outside, away from it inside);
-    ``instrument``/``bright_object`` index the pair that owns that region.
+    ``constraint`` numbers the constraint that owns that region (keep-out pairs
+    ``i n_j + j``, then keep-in cones ``n_i n_j + k``).
     """
 
     distance: float
     direction: np.ndarray
     closest_point: np.ndarray
-    instrument: int
-    bright_object: int
+    constraint: int
 
 
-class KeepOutGeometry:
-    """Keep-out cones for any number of instruments and bright objects.
+class ConeGeometry:
+    """Keep-out cones for any number of instruments and bright objects, and keep-in cones.
 
     Parameters
     ----------
     boresights_body : (n_i, 3) instrument boresights ``s_i`` in body axes.
     half_angles_deg : (n_i,) cone half-angles ``beta_i`` in degrees.
     directions_inertial : (n_j, 3) bright-object directions ``c_j`` in inertial axes.
-    inflation_deg : extra angle added to every ``beta_i`` for the MRP obstacles
-        (a planner safety buffer); the exact margins are not inflated.
-    samples : rim samples per (instrument, object) pair for the MRP obstacles.
+    inflation_deg : extra angle added to every ``beta_i`` (and taken from every
+        ``gamma_k``) for the MRP obstacles (a planner safety buffer); the exact margins
+        are not inflated.
+    samples : rim samples per constraint for the MRP obstacles.
+    keep_in : keep-in cones (none by default).
     """
 
     def __init__(
@@ -103,6 +208,7 @@ class KeepOutGeometry:
         directions_inertial: np.ndarray,
         inflation_deg: float = 0.0,
         samples: int = 180,
+        keep_in: KeepInCones | None = None,
     ) -> None:
         self.boresights_body = _unit_rows(boresights_body)
         self.half_angles_deg = np.atleast_1d(np.asarray(half_angles_deg, dtype=float))
@@ -112,7 +218,21 @@ class KeepOutGeometry:
         n_i, n_j = len(self.boresights_body), len(self.directions_inertial)
         if self.half_angles_deg.shape != (n_i,):
             raise ValueError("half_angles_deg must have one entry per boresight")
-        self.n_instruments, self.n_objects = n_i, n_j
+        keep_in = KeepInCones.none() if keep_in is None else keep_in
+        n_k = len(np.atleast_1d(keep_in.max_angles_deg))
+        self.keep_in_axes_body = _unit_rows(keep_in.axes_body) if n_k else np.zeros((0, 3))
+        self.keep_in_directions_inertial = (
+            _unit_rows(keep_in.directions_inertial) if n_k else np.zeros((0, 3))
+        )
+        self.keep_in_max_angles_deg = np.atleast_1d(np.asarray(keep_in.max_angles_deg, dtype=float))
+        if self.keep_in_axes_body.shape != (n_k, 3) or self.keep_in_directions_inertial.shape != (
+            n_k,
+            3,
+        ):
+            raise ValueError("keep-in cones need one body axis and one direction each")
+        self.n_instruments, self.n_objects, self.n_keep_in = n_i, n_j, n_k
+        self.n_keep_out = n_i * n_j
+        self.n_constraints = self.n_keep_out + n_k
         self._instruments_py = list(
             zip(
                 map(tuple, self.boresights_body.tolist()),
@@ -121,6 +241,14 @@ class KeepOutGeometry:
             )
         )
         self._objects_py = [tuple(v) for v in self.directions_inertial.tolist()]
+        self._keep_in_py = list(
+            zip(
+                map(tuple, self.keep_in_axes_body.tolist()),
+                map(tuple, self.keep_in_directions_inertial.tolist()),
+                self.keep_in_max_angles_deg.tolist(),
+                strict=True,
+            )
+        )
         self._build_rim_circles()
 
     # --- exact margins --------------------------------------------------------
@@ -134,10 +262,29 @@ class KeepOutGeometry:
             self.directions_inertial,
         )
 
-    def min_margin_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
-        """Smallest exact margin over all pairs, degrees (``> 0`` means eq. 5 holds)."""
+    def keep_in_margins_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """Exact keep-in margins ``(..., n_k)`` in degrees: ``gamma_k`` minus the angle
+        between ``C_BN^T a_k`` and ``d_k`` (positive inside the cone)."""
+        c_bn = dcm_from_mrp(sigma_bn)
+        a_n = np.einsum("...ki,nk->...ni", c_bn, self.keep_in_axes_body)
+        cosang = np.clip(
+            np.einsum("...ni,ni->...n", a_n, self.keep_in_directions_inertial), -1.0, 1.0
+        )
+        margins: _Floats = self.keep_in_max_angles_deg - np.degrees(np.arccos(cosang))
+        return margins
+
+    def constraint_margins_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """Exact margins of every constraint ``(..., n_constraints)``, degrees: keep-out
+        pairs ``i n_j + j`` first, then keep-in cones."""
         m = self.margins_deg(sigma_bn)
-        smallest: _Floats = m.reshape(m.shape[:-2] + (-1,)).min(axis=-1)
+        keep_out = m.reshape(m.shape[:-2] + (-1,))
+        if self.n_keep_in == 0:
+            return keep_out
+        return np.concatenate([keep_out, self.keep_in_margins_deg(sigma_bn)], axis=-1)
+
+    def min_margin_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """Smallest exact margin over all constraints, degrees (``> 0``: all hold)."""
+        smallest: _Floats = self.constraint_margins_deg(sigma_bn).min(axis=-1)
         return smallest
 
     def min_margin_deg_single(self, sigma_bn: Vec3Like) -> float:
@@ -155,28 +302,90 @@ class KeepOutGeometry:
             m = math.degrees(math.acos(min(max(cmax, -1.0), 1.0))) - beta
             if m < best:
                 best = m
+        for (a, b, c), (x, y, z), gamma in self._keep_in_py:
+            ax = a * r0[0] + b * r1[0] + c * r2[0]
+            ay = a * r0[1] + b * r1[1] + c * r2[1]
+            az = a * r0[2] + b * r1[2] + c * r2[2]
+            cosang = min(max(ax * x + ay * y + az * z, -1.0), 1.0)
+            m = gamma - math.degrees(math.acos(cosang))
+            if m < best:
+                best = m
+        return best
+
+    def arc_min_margin_deg_single(self, sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
+        """Smallest exact margin over every constraint along the short eigenaxis rotation
+        from ``sigma_a`` to ``sigma_b`` (all of it, closed form), degrees."""
+        (e1, e2, e3), angle = short_rotation_single(sigma_a, sigma_b)
+        if angle == 0.0:
+            return self.min_margin_deg_single(sigma_a)
+        cos_t, sin_t = math.cos(angle), math.sin(angle)
+        r0, r1, r2 = dcm_rows_from_mrp(sigma_a)
+        best = math.inf
+
+        def extremes(vx: float, vy: float, vz: float, x: float, y: float, z: float) -> Vec3:
+            # (at the start, largest, smallest) of c . v(phi), phi in [0, angle]
+            a = (e1 * vx + e2 * vy + e3 * vz) * (e1 * x + e2 * y + e3 * z)
+            start = x * vx + y * vy + z * vz
+            b = start - a
+            cc = x * (e2 * vz - e3 * vy) + y * (e3 * vx - e1 * vz) + z * (e1 * vy - e2 * vx)
+            end = a + b * cos_t + cc * sin_t
+            r = math.hypot(b, cc)
+            phi = math.atan2(cc, b) % _TWO_PI
+            hi = a + r if phi <= angle else max(start, end)
+            lo = a - r if (phi + math.pi) % _TWO_PI <= angle else min(start, end)
+            return start, hi, lo
+
+        for (a, b, c), beta in self._instruments_py:
+            vx = a * r0[0] + b * r1[0] + c * r2[0]
+            vy = a * r0[1] + b * r1[1] + c * r2[1]
+            vz = a * r0[2] + b * r1[2] + c * r2[2]
+            for x, y, z in self._objects_py:
+                hi = extremes(vx, vy, vz, x, y, z)[1]
+                m = math.degrees(math.acos(min(max(hi, -1.0), 1.0))) - beta
+                if m < best:
+                    best = m
+        for (a, b, c), (x, y, z), gamma in self._keep_in_py:
+            vx = a * r0[0] + b * r1[0] + c * r2[0]
+            vy = a * r0[1] + b * r1[1] + c * r2[1]
+            vz = a * r0[2] + b * r1[2] + c * r2[2]
+            lo = extremes(vx, vy, vz, x, y, z)[2]
+            m = gamma - math.degrees(math.acos(min(max(lo, -1.0), 1.0)))
+            if m < best:
+                best = m
         return best
 
     # --- MRP-space obstacles --------------------------------------------------
 
     def _build_rim_circles(self) -> None:
-        """Precompute the rim circles (centre, unit normal, radius) of every pair."""
+        """Precompute the rim circles (centre, unit normal, radius) of every constraint."""
         k = self.samples
         phi = 2.0 * np.pi * np.arange(k) / k
         centres, normals, radii = [], [], []
-        for i, s in enumerate(self.boresights_body):
-            beta = np.radians(self.half_angles_deg[i] + self.inflation_deg)
-            for c in self.directions_inertial:
-                e1 = _unit_perpendicular(c)
-                e2 = np.cross(c, e1)
-                # Boresight directions on the cone rim, inertial axes: (k, 3)
-                b = np.cos(beta) * c[None, :] + np.sin(beta) * (
-                    np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
-                )
-                cc, nn, rr = _fiber_circles(s, b)
-                centres.append(cc)
-                normals.append(nn)
-                radii.append(rr)
+        cones = [
+            (s, c, np.radians(self.half_angles_deg[i] + self.inflation_deg))
+            for i, s in enumerate(self.boresights_body)
+            for c in self.directions_inertial
+        ]
+        cones += [
+            (a, d, np.radians(max(gamma - self.inflation_deg, 1e-3)))
+            for a, d, gamma in zip(
+                self.keep_in_axes_body,
+                self.keep_in_directions_inertial,
+                self.keep_in_max_angles_deg,
+                strict=True,
+            )
+        ]
+        for s, c, beta in cones:
+            e1 = _unit_perpendicular(c)
+            e2 = np.cross(c, e1)
+            # Body-vector directions on the cone rim, inertial axes: (k, 3)
+            b = np.cos(beta) * c[None, :] + np.sin(beta) * (
+                np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
+            )
+            cc, nn, rr = _fiber_circles(s, b)
+            centres.append(cc)
+            normals.append(nn)
+            radii.append(rr)
         self._centres = np.concatenate(centres)  # (P*k, 3)
         self._normals = np.concatenate(normals)
         self._radii = np.concatenate(radii)
@@ -244,8 +453,7 @@ class KeepOutGeometry:
         if self.min_margin_deg_single(sigma) < self.inflation_deg:
             dist, norm = -dist, -norm
         direction = np.array([vx / norm, vy / norm, vz / norm]) if norm != 0.0 else np.zeros(3)
-        inst, obj = divmod(pair, self.n_objects)
-        return ObstacleQuery(dist, direction, np.array([px, py, pz]), inst, obj)
+        return ObstacleQuery(dist, direction, np.array([px, py, pz]), pair)
 
     def _closest_on_circle(self, idx: int, sx: float, sy: float, sz: float) -> Vec3:
         """Closest point to ``(sx, sy, sz)`` on precomputed rim circle ``idx``."""

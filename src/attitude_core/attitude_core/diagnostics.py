@@ -29,6 +29,9 @@ __all__ = [
     "GOAL_ERROR_DEG",
     "SPEED_FACTOR",
     "ACCEL_DERATING",
+    "ROUTE_ROTATION_DEG",
+    "ROUTE_WAYPOINTS",
+    "REASON",
     "KEYS",
     "PlannerDiagnostics",
 ]
@@ -47,6 +50,9 @@ TRACKING_ERROR_DEG = "tracking_error_deg"  # principal angle body to target, deg
 GOAL_ERROR_DEG = "goal_error_deg"  # principal angle body to goal, deg
 SPEED_FACTOR = "speed_factor"  # the tracking governor's factor (1 full speed, 0 held)
 ACCEL_DERATING = "accel_derating"  # share of the declared acceleration used (1: all)
+ROUTE_ROTATION_DEG = "route_rotation_deg"  # rotation of the global route followed, deg
+ROUTE_WAYPOINTS = "route_waypoints"  # waypoints of that route, start and goal included
+REASON = "reason"  # why the slew is infeasible (empty otherwise)
 KEYS = (
     STATUS,
     STEP_TIME_US,
@@ -59,6 +65,9 @@ KEYS = (
     GOAL_ERROR_DEG,
     SPEED_FACTOR,
     ACCEL_DERATING,
+    ROUTE_ROTATION_DEG,
+    ROUTE_WAYPOINTS,
+    REASON,
 )
 
 
@@ -77,6 +86,9 @@ class PlannerDiagnostics:
     goal_error_deg: float = float("nan")
     speed_factor: float = float("nan")
     accel_derating: float = float("nan")
+    route_rotation_deg: float = float("nan")
+    route_waypoints: int = 0
+    reason: str = ""
 
     def values(self) -> list[tuple[str, str]]:
         """The key/value pairs, in :data:`KEYS` order."""
@@ -92,6 +104,9 @@ class PlannerDiagnostics:
             (GOAL_ERROR_DEG, repr(float(self.goal_error_deg))),
             (SPEED_FACTOR, repr(float(self.speed_factor))),
             (ACCEL_DERATING, repr(float(self.accel_derating))),
+            (ROUTE_ROTATION_DEG, repr(float(self.route_rotation_deg))),
+            (ROUTE_WAYPOINTS, str(int(self.route_waypoints))),
+            (REASON, self.reason),
         ]
 
     @classmethod
@@ -118,4 +133,7 @@ class PlannerDiagnostics:
             goal_error_deg=number(GOAL_ERROR_DEG),
             speed_factor=number(SPEED_FACTOR),
             accel_derating=number(ACCEL_DERATING),
+            route_rotation_deg=number(ROUTE_ROTATION_DEG),
+            route_waypoints=int(values.get(ROUTE_WAYPOINTS, "0")),
+            reason=values.get(REASON, ""),
         )

@@ -20,6 +20,24 @@ EPF enhancement against the goal-non-reachable-with-obstacles-nearby trap: the
 repulsive term fades out when the goal is closer than the closest obstacle (the
 straight segment to the goal is then provably free), see :func:`_goal_occlusion`.
 
+Planning frame (``planner.planning_frame``):
+
+* ``"inertial"`` (paper variant): the law above in ``sigma_BN`` coordinates.
+* ``"target"`` (improved variant): the same law in MRPs relative to the current target,
+  re-anchored at every step. There ``sigma = 0``, the goal is ``sigma_D/T`` (the short
+  way, ``|sigma_D/T| <= 1``) and the straight line to it is the short eigenaxis
+  rotation, across ``|sigma_BN| = 1`` when that is shorter. Obstacle distance and
+  direction are measured in ``sigma_BN`` and carried over by ``B(sigma)``, which is a
+  rotation times ``1 + |sigma|^2`` (eq. 3), so directions keep their angles. The rate is
+  mapped back as ``sigma_dot = B(sigma) rho_dot`` (``rho`` the relative MRP), so
+  ``omega_t = 4 rho_dot`` (eq. 12 at ``rho = 0``). The repulsion also fades when the
+  whole eigenaxis rotation to the goal is proven outside the buffered cones (the exact
+  closed-form margin along it), the same enhancement as below with a sharper proof.
+
+Intermediate goals: :meth:`FepfPlanner.set_goal` moves the goal (a global route's
+waypoints); the capture, the terminal slow-down and the landing apply to the final goal
+only.
+
 Safety, beyond the paper: each step is no longer than 0.9 times the distance to the
 closest (inflated) keep-out region, so the whole segment is provably outside it, and
 the end point is re-checked with the exact margin. Improved variant only: a bounded
@@ -37,10 +55,10 @@ from typing import TYPE_CHECKING, cast
 import numpy as np
 import numpy.typing as npt
 
-from .constraints import KeepOutGeometry
+from .constraints import ConeGeometry
 from .fis_files import resolve_fis
 from .fuzzy import load_fis, lookup_table
-from .mrp import Vec3, Vec3Like, omega_from_mrp_rate_single
+from .mrp import Vec3, Vec3Like, mrp_rate_single, omega_from_mrp_rate_single, relative_single
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
@@ -121,7 +139,7 @@ class FepfPlanner:
 
     def __init__(
         self,
-        geometry: KeepOutGeometry,
+        geometry: ConeGeometry,
         sigma_0: Vec3Like,
         sigma_goal: Vec3Like,
         dt_s: float,
@@ -150,6 +168,10 @@ class FepfPlanner:
         self._gamma = math.radians(config.gamma_deg)
         self._cos_g, self._sin_g = math.cos(self._gamma), math.sin(self._gamma)
         self._paper_axis = config.direction_axis == "paper"
+        self.relative = getattr(config, "planning_frame", "inertial") == "target"
+        self.final_goal = True  # False while the goal is a route's intermediate waypoint
+        self._beyond_mrp = 0.0
+        self.goal_in_sight = False  # the rotation to the goal keeps the buffer (target frame)
         self.watchdog = True  # the stuck watchdog on the target (a guidance layer may own it)
         self.reset(sigma_0)
 
@@ -161,13 +183,13 @@ class FepfPlanner:
         half of the start or goal margin when either lies closer to a cone than that.
         """
         cfg = scenario.planner
-        exact = scenario.keep_out()
+        exact = scenario.cone_geometry()
         start = scenario.initial_mrp if sigma_0 is None else np.asarray(sigma_0, dtype=float)
         end_margin = min(
             float(exact.min_margin_deg(start)), float(exact.min_margin_deg(scenario.desired_mrp))
         )
         inflation = min(cfg.safety_margin_deg, 0.5 * max(end_margin, 0.0))
-        geometry = scenario.keep_out(inflation_deg=inflation, samples=cfg.obstacle_samples)
+        geometry = scenario.cone_geometry(inflation_deg=inflation, samples=cfg.obstacle_samples)
         return cls(
             geometry,
             start,
@@ -176,6 +198,16 @@ class FepfPlanner:
             cfg,
             scenario_dir=os.path.dirname(os.path.abspath(scenario.source)),
         )
+
+    def set_goal(self, sigma_goal: Vec3Like, final: bool, beyond_mrp: float = 0.0) -> None:
+        """Aim at ``sigma_goal`` from now on; ``final`` is False for a route's
+        intermediate waypoint (no capture, no terminal slow-down, no landing there), and
+        ``beyond_mrp`` the route's length after it, added to the FIS goal distance."""
+        self.goal = cast(Vec3, tuple(float(x) for x in sigma_goal))
+        self.final_goal = bool(final)
+        self._beyond_mrp = float(beyond_mrp)
+        self._best_goal_distance = math.inf
+        self._since_progress = 0.0
 
     def reset(self, sigma: Vec3Like) -> None:
         """Restart from attitude ``sigma`` (e.g. the measured attitude after a restart)."""
@@ -188,6 +220,8 @@ class FepfPlanner:
         self.last_obstacle_direction: Vec3 = (0.0, 0.0, 0.0)
         self._d_goal = math.inf
         self._raw_speed = 0.0
+        self._omega_held: Vec3 = (0.0, 0.0, 0.0)  # body rate of the held rate where it was set
+        self.wanted_omega: Vec3 = (0.0, 0.0, 0.0)
         self._checked: tuple[tuple[float, ...], float] | None = None
 
     # ------------------------------------------------------------------------------
@@ -206,21 +240,37 @@ class FepfPlanner:
         step, see the module docstring). Nothing moves until :meth:`advance`.
         """
         sx, sy, sz = self.sigma_t
-        gx, gy, gz = self.goal
-        ex, ey, ez = gx - sx, gy - sy, gz - sz
-        d_goal = math.sqrt(ex * ex + ey * ey + ez * ez)
         cfg = self.cfg
+        if self.relative:
+            ex, ey, ez = relative_single(self.goal, self.sigma_t)  # sigma_D/T, short way
+            scale = 1.0 + sx * sx + sy * sy + sz * sz  # |B(sigma) x| / |x| (eq. 3)
+        else:
+            gx, gy, gz = self.goal
+            ex, ey, ez = gx - sx, gy - sy, gz - sz
+            scale = 1.0
+        d_goal = math.sqrt(ex * ex + ey * ey + ez * ez)
         self._d_goal = d_goal
         if self.status == PlannerStatus.ARRIVED or (
-            self.status == PlannerStatus.TRACKING and d_goal <= cfg.goal_tolerance_mrp
+            self.status == PlannerStatus.TRACKING
+            and self.final_goal
+            and d_goal <= cfg.goal_tolerance_mrp
         ):
             self.status = PlannerStatus.ARRIVED
             self.sigma_t = self.goal
             self._rate = (0.0, 0.0, 0.0)
+            self._omega_held = (0.0, 0.0, 0.0)
             self._checked = None
             return self._output(self.goal, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance)
-        if self.status == PlannerStatus.STUCK:
+        if self.status != PlannerStatus.TRACKING:  # stuck or infeasible: hold
             self._rate = (0.0, 0.0, 0.0)
+            self._omega_held = (0.0, 0.0, 0.0)
+            self._checked = None
+            return self._output(
+                self.sigma_t, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance
+            )
+        if d_goal == 0.0:  # on an intermediate goal: hold until the next one is set
+            self._rate = (0.0, 0.0, 0.0)
+            self._omega_held = (0.0, 0.0, 0.0)
             self._checked = None
             return self._output(
                 self.sigma_t, (0.0, 0.0, 0.0), 0.0, 0.0, self.last_obstacle_distance
@@ -232,16 +282,31 @@ class FepfPlanner:
         self.last_obstacle_distance = d_obs
         c_hat = (float(query.direction[0]), float(query.direction[1]), float(query.direction[2]))
         self.last_obstacle_direction = c_hat
+        if self.relative:
+            c_hat = _to_target_frame(self.sigma_t, c_hat, scale)
+            d_obs = d_obs / scale
         ac = a_hat[0] * c_hat[0] + a_hat[1] * c_hat[1] + a_hat[2] * c_hat[2]
+        visibility = _goal_occlusion(d_goal, d_obs)
+        self.goal_in_sight = False
+        if self.relative:
+            if d_obs < cfg.influence_distance_mrp:
+                arc = self.geometry.arc_min_margin_deg_single(self.sigma_t, self.goal)
+                self.goal_in_sight = arc >= self.geometry.inflation_deg
+            else:
+                self.goal_in_sight = visibility == 0.0
+            if self.goal_in_sight:
+                visibility = 0.0
+        obstacle_input = min(max(d_obs / cfg.influence_distance_mrp, 0.0), 1.0)
         inputs = {
-            "goal_distance": min(d_goal, 1.0),
-            "obstacle_distance": min(max(d_obs / cfg.influence_distance_mrp, 0.0), 1.0),
+            "goal_distance": min(scale * (d_goal + self._beyond_mrp), 1.0),
+            # The rotation to the goal is proven free: no obstacle lies on the way.
+            "obstacle_distance": 1.0 if self.goal_in_sight else obstacle_input,
             "approach": 0.5 * (1.0 + ac),
         }
         m_a = cfg.max_attractive_rate_mrp_s * self._table_a(*(inputs[n] for n in self._inputs_a))
         m_r = 0.0
-        visibility = _goal_occlusion(d_goal, d_obs)
         if d_obs < cfg.influence_distance_mrp and visibility > 0.0:
+            inputs["obstacle_distance"] = obstacle_input
             m_r = (
                 visibility
                 * cfg.max_repulsive_rate_mrp_s
@@ -252,17 +317,27 @@ class FepfPlanner:
         if m_r > 0.0:
             r_hat = self._repulsive_direction(a_hat, c_hat, ac)
             vx, vy, vz = vx + m_r * r_hat[0], vy + m_r * r_hat[1], vz + m_r * r_hat[2]
-        vx, vy, vz = self._shape_rate(vx, vy, vz, d_goal, dt_since)
-        self._raw_speed = math.sqrt(vx * vx + vy * vy + vz * vz)
+        # The rate the law asks for before shaping, as a body rate (target axes).
+        if self.relative:
+            self.wanted_omega = (4.0 * vx, 4.0 * vy, 4.0 * vz)
+        else:
+            w = omega_from_mrp_rate_single(self.sigma_t, (vx, vy, vz))
+            self.wanted_omega = (float(w[0]), float(w[1]), float(w[2]))
+        vx, vy, vz = self._shape_rate(vx, vy, vz, d_goal, dt_since, scale)
+        if self.relative:  # back to sigma_BN rates: sigma_dot = B(sigma) rho_dot
+            vx, vy, vz = mrp_rate_single(self.sigma_t, (4.0 * vx, 4.0 * vy, 4.0 * vz))
+        self._raw_speed = math.sqrt(vx * vx + vy * vy + vz * vz) / scale
         (vx, vy, vz), _ = self._safe_step((vx, vy, vz), dt_ahead)
         self._rate = (vx, vy, vz)
+        self._omega_held = self._body_rate((vx, vy, vz))
         self._checked = (self._rate, dt_ahead)
         return self._output(self.sigma_t, (vx, vy, vz), m_a, m_r, d_obs)
 
     @property
     def goal_distance_mrp(self) -> float:
-        """MRP distance from the target to the goal at the last proposal."""
-        return self._d_goal
+        """MRP distance from the target to the goal at the last proposal, in the planning
+        frame, plus the route's length beyond an intermediate goal (:meth:`set_goal`)."""
+        return self._d_goal + self._beyond_mrp
 
     @property
     def rate(self) -> Vec3:
@@ -275,8 +350,13 @@ class FepfPlanner:
         with, so the one to publish); :meth:`advance` checks a longer step again."""
         safe, _ = self._safe_step(cast(Vec3, tuple(float(x) for x in rate)), dt_ahead)
         self._rate = safe
+        self._omega_held = self._body_rate(safe)
         self._checked = (safe, dt_ahead)
         return safe
+
+    def _body_rate(self, rate: Vec3) -> Vec3:
+        w = omega_from_mrp_rate_single(self.sigma_t, rate)
+        return (float(w[0]), float(w[1]), float(w[2]))
 
     def advance(self, dt: float) -> None:
         """Move ``sigma_t`` along the held rate for ``dt`` s (the time to the next state).
@@ -288,7 +368,9 @@ class FepfPlanner:
             return
         rate = cast(Vec3, self._rate)
         checked = self._checked
-        speed = math.sqrt(rate[0] ** 2 + rate[1] ** 2 + rate[2] ** 2)
+        s0 = self.sigma_t
+        scale = 1.0 + s0[0] ** 2 + s0[1] ** 2 + s0[2] ** 2 if self.relative else 1.0
+        speed = math.sqrt(rate[0] ** 2 + rate[1] ** 2 + rate[2] ** 2) / scale  # planning frame
         if checked is not None and checked[0] == rate and dt <= checked[1]:
             speed = self._raw_speed  # the terminal rule sees the step before the shortening
             new = (
@@ -299,17 +381,22 @@ class FepfPlanner:
         else:
             rate, new = self._safe_step(rate, dt)
             self._rate = rate
+            self._omega_held = self._body_rate(rate)
         # Terminal step: land exactly on the goal when the step would reach it.
-        gx, gy, gz = self.goal
         d_goal = self._d_goal
-        nx, ny, nz = gx - new[0], gy - new[1], gz - new[2]
-        step_len = dt * speed
-        if nx * nx + ny * ny + nz * nz <= self.cfg.goal_tolerance_mrp**2 or (
-            self.cfg.terminal_time_constant_s == 0.0
-            and step_len >= d_goal
-            and d_goal < self.last_obstacle_distance
-        ):
-            new = self.goal
+        if self.final_goal:
+            if self.relative:
+                nx, ny, nz = relative_single(self.goal, new)
+            else:
+                gx, gy, gz = self.goal
+                nx, ny, nz = gx - new[0], gy - new[1], gz - new[2]
+            step_len = dt * speed
+            if nx * nx + ny * ny + nz * nz <= self.cfg.goal_tolerance_mrp**2 or (
+                self.cfg.terminal_time_constant_s == 0.0
+                and step_len >= d_goal
+                and d_goal < self.last_obstacle_distance
+            ):
+                new = self.goal
         self._advance(new, d_goal, dt)
 
     def _safe_step(self, rate: Vec3, dt: float) -> tuple[Vec3, Vec3]:
@@ -369,12 +456,18 @@ class FepfPlanner:
                 axis = cast(Vec3, _any_perpendicular(c_hat))
         return _rotate(neg_c, axis, self._cos_g, self._sin_g)
 
-    def _shape_rate(self, vx: float, vy: float, vz: float, d_goal: float, dt: float) -> Vec3:
-        """Improved variant: bounded target acceleration and terminal slow-down."""
+    def _shape_rate(
+        self, vx: float, vy: float, vz: float, d_goal: float, dt: float, scale: float = 1.0
+    ) -> Vec3:
+        """Improved variant: bounded target acceleration and terminal slow-down (in the
+        planning frame; ``scale`` is ``1 + |sigma|^2`` in the target frame)."""
         cfg = self.cfg
         a_max = cfg.max_accel_mrp_s2
         if a_max > 0.0:
             px, py, pz = self._rate
+            if self.relative:  # the held rate in the target frame: omega / 4 (eq. 12, rho = 0)
+                w = self._omega_held
+                px, py, pz = 0.25 * w[0], 0.25 * w[1], 0.25 * w[2]
             dx, dy, dz = vx - px, vy - py, vz - pz
             dv = math.sqrt(dx * dx + dy * dy + dz * dz)
             dv_max = a_max * dt
@@ -382,7 +475,7 @@ class FepfPlanner:
                 f = dv_max / dv
                 vx, vy, vz = px + dx * f, py + dy * f, pz + dz * f
         tau = cfg.terminal_time_constant_s
-        if tau > 0.0:
+        if tau > 0.0 and self.final_goal:
             speed = math.sqrt(vx * vx + vy * vy + vz * vz)
             cap = d_goal / tau
             if speed > cap:
@@ -423,6 +516,20 @@ class FepfPlanner:
             float(m_r),
             float(d_obs),
         )
+
+
+def _to_target_frame(sigma: Vec3, v: Vec3, scale: float) -> Vec3:
+    """A unit ``sigma_BN``-space direction at ``sigma`` in the target frame:
+    ``B(sigma)^T v / (1 + |sigma|^2)`` (``B / (1 + |sigma|^2)`` is a rotation)."""
+    s1, s2, s3 = sigma
+    v1, v2, v3 = v
+    a = 1.0 - (s1 * s1 + s2 * s2 + s3 * s3)
+    sv = s1 * v1 + s2 * v2 + s3 * v3
+    return (
+        (a * v1 - 2.0 * (s2 * v3 - s3 * v2) + 2.0 * s1 * sv) / scale,
+        (a * v2 - 2.0 * (s3 * v1 - s1 * v3) + 2.0 * s2 * sv) / scale,
+        (a * v3 - 2.0 * (s1 * v2 - s2 * v1) + 2.0 * s3 * sv) / scale,
+    )
 
 
 def _goal_occlusion(d_goal: float, d_obs: float) -> float:

@@ -33,7 +33,23 @@ the target for that instant:
    that falls behind a profile within the declared limits shows a plant weaker than
    declared: the profile's acceleration is then halved (at most every 5 s, down to
    1/64; :attr:`Guidance.derating`).
-5. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
+5. **Global route** (:mod:`attitude_core.route`). Before the first step the guidance
+   plans a route over the attitude space from the start to the goal (edges checked
+   continuously against the exact margins). None at the planner's resolution: the
+   status is ``infeasible`` at once, :attr:`Guidance.reason` names the constraints that
+   enclose the start or the goal, and the target holds the start. With
+   ``planner.global_route`` the route's waypoints are the FEPF's intermediate goals: the
+   next waypoint is taken as soon as the whole rotation to it keeps the route's
+   clearance (or the target is within half the route's slack, its clearance beyond the
+   buffer, of the current one); the braking curve to the goal runs along the rest of
+   the route, and braking curves to each turn at a waypoint keep the swing of the turn
+   within half the slack (:func:`corner_speed`). While the rotation to the current
+   waypoint keeps the buffer the cone braking is not needed (the target flies that
+   rotation). When the target makes no progress for half the stuck timeout, a new
+   route is planned from the target off the step path (``executor``, e.g. a thread)
+   and followed :data:`ROUTE_LATENCY_S` of state time later, at most
+   :data:`ROUTE_REPLANS` times.
+6. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
    body is within the arrival tolerances (attitude and rate); it is withdrawn if the
    body leaves twice those tolerances. ``stuck`` when neither the target's nor the
    body's distance to the goal has improved for ``planner.stuck_timeout_s`` (plus,
@@ -43,14 +59,18 @@ the target for that instant:
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from concurrent.futures import Future
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
+from .constraints import short_rotation_single
 from .fepf import FepfPlanner, PlannerOutput
 from .mrp import Vec3Like, angle_between_single, mrp_rate_single, omega_from_mrp_rate_single
+from .route import Route, RoutePlanner
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
@@ -61,6 +81,12 @@ __all__ = [
     "GYRO_SHARE",
     "RATE_USE",
     "BRAKE_USE",
+    "MIN_SLACK_DEG",
+    "ROUTE_REPLANS",
+    "ROUTE_LATENCY_S",
+    "corner_speed",
+    "Executor",
+    "ImmediateExecutor",
     "GuidanceLimits",
     "GuidanceOutput",
     "Guidance",
@@ -81,10 +107,40 @@ RATE_USE = 0.95
 BRAKE_USE = 1.0
 """Fraction of the angle to the closest buffered rim that the braking curve may use."""
 
+MIN_SLACK_DEG = 0.05
+"""Smallest swing and capture angle at a waypoint (a route that keeps only the buffer)."""
+
+
+ROUTE_REPLANS = 2
+"""Routes planned again from the target when it stalls, at most."""
+
+ROUTE_LATENCY_S = 1.0
+"""State time after its request at which a new route is taken: the same step offline,
+in lockstep and in real time (a route takes well under this to plan; a thread that is
+late is waited for)."""
+
+
+class Executor(Protocol):
+    """Where a route is planned during the run: ``submit(fn, *args)`` returns a future
+    (a ``concurrent.futures`` executor, or :class:`ImmediateExecutor`)."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future[Any]: ...
+
+
+class ImmediateExecutor:
+    """Runs the task at once (offline and lockstep runs: deterministic). Its result is
+    still taken at the next update, as a thread's would be."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future[Any]:
+        future: Future[Any] = Future()
+        future.set_result(fn(*args))
+        return future
+
+
 # Progress: a new best distance to the goal must beat the old one by this much (a
 # target creeping towards the governor's hold point must not count).
 _PROGRESS_RAD = 1e-3  # body, principal angle
-_PROGRESS_MRP = 2.5e-4  # target, MRP distance (about the same angle)
+_PROGRESS_MRP = 2.5e-4  # target, MRP distance along the route (about the same angle)
 _MIN_HOLD_DEG = 0.1
 _MIN_DERATING = 1.0 / 64.0
 _DERATE_EVERY_S = 5.0
@@ -144,12 +200,24 @@ def time_bound_s(
     return theta / max_rate_rad_s + max_rate_rad_s / alpha_max_rad_s2
 
 
-def _braking_speed(alpha: float, theta: float, dt: float) -> float:
-    """The largest speed from which steps of ``dt`` decelerating at ``alpha`` stop
-    within ``theta``: ``sqrt(2 alpha theta + (alpha dt / 2)^2) - alpha dt / 2`` (the
-    sampled form of ``sqrt(2 alpha theta)``)."""
+def _braking_speed(alpha: float, theta: float, dt: float, end_speed: float = 0.0) -> float:
+    """The largest speed from which steps of ``dt`` decelerating at ``alpha`` are down
+    to ``end_speed`` within ``theta``:
+    ``sqrt(end^2 + 2 alpha theta + (alpha dt / 2)^2) - alpha dt / 2`` (the sampled form
+    of ``sqrt(end^2 + 2 alpha theta)``)."""
     half = 0.5 * alpha * dt
-    return math.sqrt(2.0 * alpha * theta + half * half) - half
+    return math.sqrt(end_speed * end_speed + 2.0 * alpha * theta + half * half) - half
+
+
+def corner_speed(alpha: float, turn_rad: float, swing_rad: float) -> float:
+    """The speed at which a target turning by ``turn_rad`` at a waypoint, with its rate
+    vector changing by at most ``alpha``, swings at most ``swing_rad`` off the route:
+    ``sqrt(alpha swing / (1 - cos(turn)))`` (the swing of a turn of radius
+    ``v^2 / alpha``)."""
+    bend = 1.0 - math.cos(min(turn_rad, math.pi))
+    if bend < 1e-12:
+        return math.inf
+    return math.sqrt(alpha * swing_rad / bend)
 
 
 @dataclass(slots=True)
@@ -172,6 +240,10 @@ class Guidance:
         limits: GuidanceLimits,
         attitude_tol_deg: float,
         rate_tol_rad_s: float,
+        routes: RoutePlanner | None = None,
+        follow_route: bool = True,
+        executor: Executor | None = None,
+        initial_route: Route | None = None,
     ) -> None:
         self.planner = planner
         planner.watchdog = False  # progress is judged here, on the body too
@@ -188,18 +260,170 @@ class Guidance:
         self._best_body = math.inf
         self._best_target = math.inf
         self._since_progress = 0.0
+        self.routes = routes
+        self.follow_route = follow_route and routes is not None
+        self.executor: Executor = ImmediateExecutor() if executor is None else executor
+        self.route: Route | None = None
+        self.reason = ""  # why the slew is infeasible
+        self.replans = 0
+        self._pending: Future[Route] | None = None
+        self._pending_at = math.inf  # state time at which the pending route is taken
+        self._first_route_deg = math.nan
+        self._leg = 0
+        self._after_leg: list[float] = [0.0]  # route rotation left after each waypoint, rad
+        self._turn: list[float] = [0.0]  # turn at each waypoint, rad
+        self._swing_deg = MIN_SLACK_DEG  # allowed swing off the route at a turn, and capture
+        if routes is not None:
+            first = (
+                initial_route
+                if initial_route is not None
+                else routes.plan(planner.sigma_t, self.goal)
+            )
+            if first.feasible:
+                self._take_route(first)
+            else:
+                self.route = first
+                self.reason = first.reason
+                self.status = PlannerStatus.INFEASIBLE
+                planner.status = PlannerStatus.INFEASIBLE  # the target holds the start
 
     @classmethod
-    def from_scenario(cls, scenario: Scenario, sigma_0: Vec3Like | None = None) -> Guidance:
+    def from_scenario(
+        cls,
+        scenario: Scenario,
+        sigma_0: Vec3Like | None = None,
+        executor: Executor | None = None,
+        routes: RoutePlanner | None = None,
+        initial_route: Route | None = None,
+    ) -> Guidance:
+        """The guidance of a scenario from ``sigma_0`` (default: the scenario's start);
+        ``routes`` may be a prepared :meth:`route_planner` of the same scenario and
+        ``initial_route`` a route it planned from ``sigma_0`` (planned here otherwise)."""
         act = scenario.actuators
+        planner = FepfPlanner.from_scenario(scenario, sigma_0)
+        if routes is None or routes.buffer_deg != planner.geometry.inflation_deg:
+            routes = cls.route_planner(scenario, planner.geometry.inflation_deg)
         return cls(
-            FepfPlanner.from_scenario(scenario, sigma_0),
+            planner,
             GuidanceLimits.from_actuators(
                 scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
             ),
             scenario.arrival.attitude_tol_deg,
             scenario.arrival.rate_tol_rad_s,
+            routes,
+            scenario.planner.global_route,
+            executor,
+            initial_route,
         )
+
+    @staticmethod
+    def route_planner(scenario: Scenario, buffer_deg: float) -> RoutePlanner:
+        """The route planner of a scenario for a planner buffer of ``buffer_deg``."""
+        return RoutePlanner(
+            scenario.cone_geometry(samples=16),
+            buffer_deg,
+            scenario.constraint_names,
+            scenario.planner.roadmap_nodes,
+        )
+
+    def _take_route(self, route: Route) -> None:
+        """Follow ``route`` (its first waypoint is where the target is)."""
+        self.route = route
+        if math.isnan(self._first_route_deg):
+            self._first_route_deg = math.degrees(route.rotation_rad)
+        if not self.follow_route:
+            return
+        wp = route.waypoints
+        legs = [angle_between_single(wp[i], wp[i + 1]) for i in range(len(wp) - 1)]
+        self._after_leg = [sum(legs[i:]) for i in range(len(legs))] + [0.0]
+        # Turn at each inner waypoint: the angle between the inertial eigenaxes of the
+        # rotations in and out of it (the directions of the body rate).
+        self._turn = [0.0] * len(wp)
+        for k in range(1, len(wp) - 1):
+            e_in, _ = short_rotation_single(wp[k - 1], wp[k])
+            e_out, _ = short_rotation_single(wp[k], wp[k + 1])
+            cos_turn = sum(a * b for a, b in zip(e_in, e_out, strict=True))
+            self._turn[k] = math.acos(min(max(cos_turn, -1.0), 1.0))
+        slack = max(route.clearance_deg - self.planner.geometry.inflation_deg, 0.0)
+        self._swing_deg = max(0.5 * slack, MIN_SLACK_DEG)
+        self._leg = 0
+        self._set_leg(1)
+
+    def _set_leg(self, leg: int) -> None:
+        wp = self.route.waypoints if self.route is not None else ()
+        self._leg = leg
+        # The FIS goal distance runs along the rest of the route (tan(theta / 4) ~ theta / 4).
+        self.planner.set_goal(
+            wp[leg], final=leg == len(wp) - 1, beyond_mrp=0.25 * self._after_leg[leg]
+        )
+
+    def _next_waypoint(self) -> None:
+        """Pass waypoints: the next one is in sight, or the current one is reached."""
+        if self.route is None or not self.follow_route:
+            return
+        planner = self.planner
+        wp = self.route.waypoints
+        last = len(wp) - 1
+        clearance = self.route.clearance_deg
+        while self._leg < last:
+            here = planner.sigma_t
+            near = math.degrees(angle_between_single(here, wp[self._leg])) <= self._swing_deg
+            if not near and (
+                planner.geometry.arc_min_margin_deg_single(here, wp[self._leg + 1]) < clearance
+            ):
+                break
+            self._set_leg(self._leg + 1)
+
+    @property
+    def route_rotation_deg(self) -> float:
+        """Rotation of the first feasible route planned, deg (NaN without one)."""
+        return self._first_route_deg
+
+    def remaining_rad(self, sigma_t: Vec3Like) -> float:
+        """Rotation left to the goal from ``sigma_t``: along the route when one is
+        followed, else the principal angle."""
+        if self.route is None or not self.follow_route or not self.route.feasible:
+            return angle_between_single(sigma_t, self.goal)
+        leg = self._leg
+        return angle_between_single(sigma_t, self.route.waypoints[leg]) + self._after_leg[leg]
+
+    def _corner_cap(self, sigma_t: Vec3Like, alpha: float, dt: float) -> float:
+        """The braking curves to the turns at the waypoints ahead (:func:`corner_speed`)."""
+        if self.route is None or not self.follow_route:
+            return math.inf
+        wp = self.route.waypoints
+        cap = math.inf
+        to_next = angle_between_single(sigma_t, wp[self._leg])
+        for k in range(self._leg, len(wp) - 1):
+            ahead = to_next + self._after_leg[self._leg] - self._after_leg[k]
+            v_turn = corner_speed(alpha, self._turn[k], math.radians(self._swing_deg))
+            if v_turn < cap:
+                cap = min(cap, _braking_speed(alpha, ahead, dt, v_turn))
+        return cap
+
+    def _replan(self) -> None:
+        """Plan a new route from the target, off the step path."""
+        if self.routes is None or not self.follow_route or self._pending is not None:
+            return
+        if self.replans >= ROUTE_REPLANS:
+            return
+        self.replans += 1
+        self._pending = self.executor.submit(
+            self.routes.plan, tuple(self.planner.sigma_t), tuple(self.goal)
+        )
+        self._pending_at = (self.t_prev or 0.0) + ROUTE_LATENCY_S
+
+    def _collect_route(self, t_s: float) -> None:
+        pending = self._pending
+        if pending is None or t_s < self._pending_at:
+            return
+        self._pending = None
+        route = pending.result()
+        if route.feasible and self.planner.status == PlannerStatus.TRACKING:
+            # The route starts where the target was when it was asked for; the target has
+            # not moved much since (it stalled): aim at the route's next waypoint.
+            self._take_route(route)
+            self._since_progress = 0.0
 
     def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
         """The target for the measured state at time ``t_s`` (s, non-decreasing)."""
@@ -212,6 +436,9 @@ class Guidance:
             raise ValueError(f"state time {t_s} s repeats the previous one")
         self.t_prev = float(t_s)
         planner.advance(dt)
+        self._collect_route(float(t_s))
+        if planner.status == PlannerStatus.TRACKING:
+            self._next_waypoint()
         out = planner.propose(dt if dt > 0.0 else nominal, max(nominal, dt))
         e_track = math.degrees(angle_between_single(sigma_bn, out.sigma_t))
         e_goal = math.degrees(angle_between_single(sigma_bn, self.goal))
@@ -253,15 +480,28 @@ class Guidance:
         alpha = None if lim.accel_rad_s2 is None else lim.accel_rad_s2 * self.derating
         if alpha is not None:
             sigma_t = out.sigma_t
-            theta_goal = angle_between_single(sigma_t, self.goal)
-            # Rotation to the buffered rim: a rotation by theta moves a boresight by at most
-            # theta, so the exact margin less the buffer bounds it from below.
-            geometry = self.planner.geometry
-            margin = geometry.min_margin_deg_single(sigma_t)
-            theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
-            cap = min(cap, _braking_speed(alpha, min(theta_goal, BRAKE_USE * theta_obs), dt))
-        if speed > cap:
-            omega *= cap / speed
+            theta = self.remaining_rad(sigma_t)
+            if not self.planner.goal_in_sight:
+                # Rotation to the buffered rim: a rotation by theta moves a boresight by at
+                # most theta, so the exact margin less the buffer bounds it from below.
+                geometry = self.planner.geometry
+                margin = geometry.min_margin_deg_single(sigma_t)
+                theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
+                theta = min(theta, BRAKE_USE * theta_obs)
+            cap = min(cap, _braking_speed(alpha, theta, dt), self._corner_cap(sigma_t, alpha, dt))
+        wanted = cap
+        if alpha is not None and speed > 0.0:
+            # Turn before speeding up: the speed aimed at while the rate vector turns to the
+            # new direction keeps the swing of the turn small (a soft cap, reached at alpha).
+            prev = math.hypot(*self.omega_prev)
+            want = self.planner.wanted_omega
+            size = math.hypot(*want)
+            if prev > 0.0 and size > 0.0:
+                cos_turn = float(np.dot(want, self.omega_prev)) / (size * prev)
+                turn = math.acos(min(max(cos_turn, -1.0), 1.0))
+                wanted = min(cap, corner_speed(alpha, turn, math.radians(self._swing_deg)))
+        if speed > wanted:
+            omega *= wanted / speed
         if alpha is not None:
             change = omega - self.omega_prev
             size = math.hypot(*change)
@@ -300,7 +540,7 @@ class Guidance:
     def _judge(self, dt: float, e_goal_deg: float, rate_b: float) -> None:
         """Step 5 of the module docstring."""
         planner = self.planner
-        if self.status == PlannerStatus.STUCK:
+        if self.status in (PlannerStatus.STUCK, PlannerStatus.INFEASIBLE):
             return
         on_goal = planner.status == PlannerStatus.ARRIVED
         if on_goal and e_goal_deg <= self.attitude_tol_deg and rate_b <= self.rate_tol_rad_s:
@@ -323,6 +563,8 @@ class Guidance:
             self._since_progress = 0.0
             return
         self._since_progress += dt
+        if self._since_progress >= 0.5 * self.stuck_timeout_s:
+            self._replan()
         if self._since_progress >= self.stuck_timeout_s:
             self.status = PlannerStatus.STUCK
             planner.status = PlannerStatus.STUCK  # the target holds where it is

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from .constraints import KeepOutGeometry
+from .constraints import ConeGeometry
 from .mrp import mrp_from_quat_sf, principal_angle, quat_sf_from_mrp, relative, shadow
 
 __all__ = [
@@ -28,7 +28,7 @@ def _quat_rate_sf(q: np.ndarray, omega: np.ndarray) -> np.ndarray:
 
 
 def dense_min_margin_deg(
-    geometry: KeepOutGeometry,
+    geometry: ConeGeometry,
     t: np.ndarray,
     sigma_bn: np.ndarray,
     omega_b: np.ndarray,

@@ -55,6 +55,7 @@ PLANNER = NodeParameters(
         "desired_mrp",
         "instruments.*",
         "bright_objects.*",
+        "keep_in.*",
         "planner.*",
         "actuators.*",
         "arrival.*",

@@ -10,6 +10,12 @@ A scenario file is usable as-is with ``--ros-args --params-file`` for every node
         instruments:
           names: [star_tracker]
           star_tracker: {boresight_body: [1.0, 0.0, 0.0], half_angle_deg: 20.0}
+        keep_in:                        # optional
+          names: [sun_sensor]
+          sun_sensor:
+            axis_body: [0.0, 0.7071, 0.7071]
+            direction_inertial: [0.2802, 0.7698, 0.5736]
+            max_angle_deg: 70.0
 
 Nested mappings under ``ros__parameters`` are ROS dotted parameter names
 (``instruments.star_tracker.half_angle_deg``). All quantities are SI and frame names
@@ -30,11 +36,15 @@ Decisions:
 * An MRP with ``|sigma| > 1`` is accepted and replaced by its shadow set (the same
   attitude, :func:`attitude_core.mrp.to_principal`), so ``Scenario.initial_mrp`` and
   ``Scenario.desired_mrp`` always satisfy ``|sigma| <= 1``.
-* Boresights and bright-object directions are normalised; a norm more than 5 % away
-  from 1 is refused as an almost certain typo (the paper's ``c1 = [0, -0.981, -0.196]``
-  has norm 1.0004 and loads).
-* A start or goal attitude inside a keep-out cone (exact margin <= 0, eq. 5) is
-  refused.
+* Boresights, bright-object directions and keep-in axes and directions are
+  normalised; a norm more than 5 % away from 1 is refused as an almost certain typo
+  (the paper's ``c1 = [0, -0.981, -0.196]`` has norm 1.0004 and loads).
+* Keep-in cones (``keep_in``) are optional: without ``keep_in.names`` there is none.
+  ``keep_in.names: []`` means none too, because that is what the nodes see: rcl leaves
+  an empty list in a parameters file unset. (The required ``instruments.names`` and
+  ``bright_objects.names`` refuse an empty list.)
+* A start or goal attitude inside a keep-out cone (exact margin <= 0, eq. 5), or
+  outside a keep-in cone (exact margin <= 0), is refused.
 * ``planner.variant`` ("improved" or "paper") selects the defaults of the other
   ``planner.*`` keys; a key given explicitly overrides the variant's default.
 """
@@ -43,19 +53,20 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import yaml
 
-from .constraints import KeepOutGeometry
+from .constraints import ConeGeometry, KeepInCones
 from .parameters import Param, ParameterError, convert, type_name
 from .scenario_schema import (
     GROUP_PARAMETERS,
     GROUPS,
     MAX_STEPS,
+    OPTIONAL_GROUPS,
     SCENARIO_PARAMETERS,
     group_names_param,
 )
@@ -99,6 +110,9 @@ class PlannerConfig:
     goal_tolerance_mrp: float
     stuck_timeout_s: float
     obstacle_samples: int
+    planning_frame: str
+    global_route: bool
+    roadmap_nodes: int
 
 
 @dataclass(frozen=True)
@@ -117,6 +131,10 @@ class ActuatorLimits:
 class ArrivalConfig:
     attitude_tol_deg: float
     rate_tol_rad_s: float
+
+
+def _no_rows(width: int | None = 3) -> np.ndarray:
+    return _frozen(np.zeros((0, width) if width else (0,)))
 
 
 @dataclass(frozen=True, eq=False)  # eq=False: ndarray fields have no truth value
@@ -139,6 +157,11 @@ class Scenario:
     planner: PlannerConfig
     arrival: ArrivalConfig
     actuators: ActuatorLimits = ActuatorLimits()
+    # Keep-in cones k: body axis a_k within max_angle_k of inertial d_k (none by default).
+    keep_in_names: tuple[str, ...] = ()
+    keep_in_axes_body: np.ndarray = field(default_factory=_no_rows)  # (n_k, 3)
+    keep_in_directions_inertial: np.ndarray = field(default_factory=_no_rows)  # (n_k, 3)
+    keep_in_max_angles_deg: np.ndarray = field(default_factory=lambda: _no_rows(None))  # (n_k,)
 
     @property
     def n_steps(self) -> int:
@@ -154,15 +177,31 @@ class Scenario:
         """Derivative gain matrix ``Kd = kd_over_j * J`` (paper Table 1)."""
         return _frozen(self.kd_over_j * self.inertia_kgm2)
 
-    def keep_out(self, inflation_deg: float = 0.0, samples: int | None = None) -> KeepOutGeometry:
-        """Keep-out geometry of this scenario (``samples`` defaults to planner.obstacle_samples)."""
-        return KeepOutGeometry(
+    def cone_geometry(self, inflation_deg: float = 0.0, samples: int | None = None) -> ConeGeometry:
+        """Keep-out and keep-in geometry of this scenario (``samples`` defaults to
+        planner.obstacle_samples); its constraints are numbered as :attr:`constraint_names`."""
+        return ConeGeometry(
             self.boresights_body,
             self.half_angles_deg,
             self.directions_inertial,
             inflation_deg=inflation_deg,
             samples=self.planner.obstacle_samples if samples is None else samples,
+            keep_in=KeepInCones(
+                self.keep_in_axes_body,
+                self.keep_in_directions_inertial,
+                self.keep_in_max_angles_deg,
+            ),
         )
+
+    @property
+    def constraint_names(self) -> tuple[str, ...]:
+        """A label per constraint, in the geometry's numbering
+        (:meth:`ConeGeometry.constraint_margins_deg`): keep-out pairs
+        ``"<instrument>/<object>"`` (``i n_j + j``), then keep-in cones
+        ``"keep_in/<name>"``."""
+        return tuple(
+            f"{inst}/{obj}" for inst in self.instrument_names for obj in self.bright_object_names
+        ) + tuple(f"keep_in/{name}" for name in self.keep_in_names)
 
 
 # --- parsing -----------------------------------------------------------------------------
@@ -198,13 +237,16 @@ def is_ros_builtin(key: str) -> bool:
 
 
 def scenario_keys(
-    instrument_names: Sequence[str] = (), bright_object_names: Sequence[str] = ()
+    instrument_names: Sequence[str] = (),
+    bright_object_names: Sequence[str] = (),
+    keep_in_names: Sequence[str] = (),
 ) -> list[Param]:
     """Every scenario row under its dotted key: the name lists first, then the table,
-    then the per-name rows of the given names."""
+    then the per-name rows of the given names (in :data:`GROUPS` order)."""
     rows = [group_names_param(g) for g in GROUPS]
     rows += list(SCENARIO_PARAMETERS)
-    for group, names in zip(GROUPS, (instrument_names, bright_object_names), strict=True):
+    listed = (instrument_names, bright_object_names, keep_in_names)
+    for group, names in zip(GROUPS, listed, strict=True):
         rows += [p.renamed(f"{group}.{n}.{p.key}") for n in names for p in GROUP_PARAMETERS[group]]
     return rows
 
@@ -235,9 +277,18 @@ def parse_scenario(
             return default
         return convert(row, flat[row.key], source, base, error=ScenarioError)
 
-    # 1. The name lists define the set of known keys; refuse unknown keys next.
-    groups = {g: value(group_names_param(g), None) for g in GROUPS}
-    known = {p.key for p in scenario_keys(groups["instruments"], groups["bright_objects"])}
+    # 1. The name lists define the set of known keys; refuse unknown keys next. An
+    #    optional group without its list, or with an empty one (rcl leaves an empty list
+    #    unset, so the nodes see it absent), has no member.
+    def names_of(group: str) -> tuple[str, ...]:
+        row = group_names_param(group)
+        if group in OPTIONAL_GROUPS and flat.get(row.key) == []:
+            return ()
+        names: tuple[str, ...] = value(row, None) or ()
+        return names
+
+    groups = {g: names_of(g) for g in GROUPS}
+    known = {p.key for p in scenario_keys(*(groups[g] for g in GROUPS))}
     for key in flat:
         if key in known:
             continue
@@ -274,7 +325,7 @@ def parse_scenario(
             ),
         )
 
-    # 3. Per-instrument and per-object rows.
+    # 3. Per-instrument, per-object and per-keep-in-cone rows.
     per_name = {
         g: [
             {p.key: value(p.renamed(f"{g}.{n}.{p.key}"), None) for p in GROUP_PARAMETERS[g]}
@@ -308,10 +359,14 @@ def parse_scenario(
         actuators=ActuatorLimits(
             _torque_bound(values["actuators.max_torque_nm"]), values["actuators.max_rate_rad_s"]
         ),
+        keep_in_names=groups["keep_in"],
+        keep_in_axes_body=_rows(per_name["keep_in"], "axis_body", 3),
+        keep_in_directions_inertial=_rows(per_name["keep_in"], "direction_inertial", 3),
+        keep_in_max_angles_deg=_rows(per_name["keep_in"], "max_angle_deg", None),
     )
 
-    # 4. Start and goal must satisfy the keep-out constraints (eq. 5).
-    geometry = scenario.keep_out(samples=16)  # exact margins do not depend on samples
+    # 4. Start and goal must satisfy the keep-out constraints (eq. 5) and the keep-in cones.
+    geometry = scenario.cone_geometry(samples=16)  # exact margins do not depend on samples
     for key in ("initial_mrp", "desired_mrp"):
         margins = geometry.margins_deg(getattr(scenario, key))
         i, j = np.unravel_index(int(np.argmin(margins)), margins.shape)
@@ -323,6 +378,21 @@ def parse_scenario(
                     f"attitude is inside the keep-out cone of instrument "
                     f"{scenario.instrument_names[i]!r} and bright object "
                     f"{scenario.bright_object_names[j]!r} (margin {margins[i, j]:.1f} deg)"
+                ),
+            )
+        if geometry.n_keep_in == 0:
+            continue
+        keep_in = geometry.keep_in_margins_deg(getattr(scenario, key))
+        k = int(np.argmin(keep_in))
+        if keep_in[k] <= 0.0:
+            gamma = float(scenario.keep_in_max_angles_deg[k])
+            raise ScenarioError(
+                source,
+                key,
+                (
+                    f"attitude is outside the keep-in cone keep_in.{scenario.keep_in_names[k]}: "
+                    f"its axis is {gamma - keep_in[k]:.1f} deg from the direction, more than "
+                    f"max_angle_deg {gamma:g} (margin {keep_in[k]:.1f} deg)"
                 ),
             )
     return scenario
@@ -380,6 +450,13 @@ def loads_scenario(text: str, source: str = "<text>") -> Scenario:
             "{'ros__parameters': {...}}} (a ROS 2 parameters file for all nodes)",
         )
     return parse_scenario(doc["/**"]["ros__parameters"], source)
+
+
+def _rows(members: list[dict[str, Any]], key: str, width: int | None) -> np.ndarray:
+    """One row per group member of ``key``: ``(n, width)``, or ``(n,)`` for scalars."""
+    if not members:
+        return _no_rows(width)
+    return _frozen(np.array([m[key] for m in members]))
 
 
 def _torque_bound(v: Any) -> tuple[float, float, float] | None:

@@ -3,9 +3,12 @@
 The loader (:mod:`attitude_core.scenario`) validates with these rows and the nodes
 declare them (``attitude_ros.params``); each node declares only the rows it reads
 (:mod:`attitude_core.node_parameters`). Per listed name, the rows of
-:data:`INSTRUMENT_PARAMETERS` live under ``instruments.<name>.`` and those of
-:data:`OBJECT_PARAMETERS` under ``bright_objects.<name>.``. A :class:`ByVariant`
-default depends on ``planner.variant``, which therefore comes before them.
+:data:`INSTRUMENT_PARAMETERS` live under ``instruments.<name>.``, those of
+:data:`OBJECT_PARAMETERS` under ``bright_objects.<name>.`` and those of
+:data:`KEEP_IN_PARAMETERS` under ``keep_in.<name>.``. ``instruments.names`` and
+``bright_objects.names`` are required; ``keep_in.names`` is optional (absent, or an
+empty list, which rcl leaves unset: no keep-in cone). A :class:`ByVariant` default
+depends on ``planner.variant``, which therefore comes before them.
 """
 
 from __future__ import annotations
@@ -14,14 +17,16 @@ from typing import Any
 
 import numpy as np
 
-from .parameters import Bounds, ByVariant, Param, ge, gt
+from .parameters import REQUIRED, Bounds, ByVariant, Param, ge, gt
 
 __all__ = [
     "SCENARIO_PARAMETERS",
     "GROUP_PARAMETERS",
     "INSTRUMENT_PARAMETERS",
     "OBJECT_PARAMETERS",
+    "KEEP_IN_PARAMETERS",
     "GROUPS",
+    "OPTIONAL_GROUPS",
     "MAX_STEPS",
     "group_names_param",
 ]
@@ -178,6 +183,28 @@ SCENARIO_PARAMETERS = (
         Bounds(16, 100_000),
     ),
     Param(
+        "planner.planning_frame",
+        "str",
+        "MRPs the FEPF is formed in: 'target' (relative to the current target: the short "
+        "way) or 'inertial' (sigma_BN, the paper's)",
+        ByVariant("target", "inertial"),
+        choices=("target", "inertial"),
+    ),
+    Param(
+        "planner.global_route",
+        "bool",
+        "follow a global route's waypoints (false: the FEPF alone; feasibility is "
+        "checked either way)",
+        ByVariant(True, False),
+    ),
+    Param(
+        "planner.roadmap_nodes",
+        "int",
+        "attitudes of the global route's roadmap (its resolution)",
+        ByVariant(4096, 4096),
+        Bounds(256, 262_144),
+    ),
+    Param(
         "actuators.max_torque_nm",
         "vec3",
         "per-body-axis torque bound of the actuators, N m (each > 0; absent: unlimited)",
@@ -208,10 +235,37 @@ INSTRUMENT_PARAMETERS = (
 OBJECT_PARAMETERS = (
     Param("direction_inertial", "unit3", "bright-object direction c_j, inertial axes, unit vector"),
 )
-GROUPS = ("instruments", "bright_objects")
-GROUP_PARAMETERS = {"instruments": INSTRUMENT_PARAMETERS, "bright_objects": OBJECT_PARAMETERS}
+KEEP_IN_PARAMETERS = (
+    Param("axis_body", "unit3", "keep-in body axis a_k, body axes, unit vector"),
+    Param(
+        "direction_inertial",
+        "unit3",
+        "direction d_k the axis must stay near, inertial axes, unit vector",
+    ),
+    Param(
+        "max_angle_deg",
+        "float",
+        "largest angle gamma_k between the axis and the direction, deg",
+        bounds=Bounds(0.0, 180.0, lo_open=True, hi_open=True),
+    ),
+)
+GROUPS = ("instruments", "bright_objects", "keep_in")
+OPTIONAL_GROUPS = ("keep_in",)
+"""Groups whose ``<group>.names`` may be absent (no member)."""
+GROUP_PARAMETERS = {
+    "instruments": INSTRUMENT_PARAMETERS,
+    "bright_objects": OBJECT_PARAMETERS,
+    "keep_in": KEEP_IN_PARAMETERS,
+}
+_GROUP_TEXT = {
+    "instruments": "names of the instruments",
+    "bright_objects": "names of the bright_objects",
+    "keep_in": "names of the keep-in cones (absent: none)",
+}
 
 
 def group_names_param(group: str) -> Param:
-    """The ``<group>.names`` row: the listed names define the per-name keys."""
-    return Param(f"{group}.names", "names", f"names of the {group}")
+    """The ``<group>.names`` row: the listed names define the per-name keys (optional,
+    default None, for the groups of :data:`OPTIONAL_GROUPS`)."""
+    default = None if group in OPTIONAL_GROUPS else REQUIRED
+    return Param(f"{group}.names", "names", _GROUP_TEXT[group], default)

@@ -37,12 +37,20 @@ class RunResult:
     planner_status: np.ndarray  # PlannerStatus.code
     planner_step_s: np.ndarray  # wall time of each planner step call
     wall_time_s: float
+    planner_reason: str = ""  # why the planner reported infeasible ("" otherwise)
+    route_rotation_deg: float = float("nan")  # the planner's first global route, deg
 
 
 def summarize(run: RunResult) -> dict[str, Any]:
-    """Summary figures of a run (the fields of ``summary.json``)."""
+    """Summary figures of a run (the fields of ``summary.json``).
+
+    ``min_margin_deg`` is the dense minimum over every constraint;
+    ``min_margin_deg_per_pair`` the minimum at the samples of each constraint, keyed by
+    :attr:`Scenario.constraint_names` (``"<instrument>/<object>"`` keep-out pairs, then
+    ``"keep_in/<name>"`` keep-in cones).
+    """
     sc = run.scenario
-    geometry = sc.keep_out()
+    geometry = sc.cone_geometry()
     min_margin, t_min = dense_min_margin_deg(geometry, run.t, run.sigma_bn, run.omega_b)
     reached, t_reach, err_deg = arrival_time(
         run.t,
@@ -54,7 +62,9 @@ def summarize(run: RunResult) -> dict[str, Any]:
     )
     arrived = np.flatnonzero(run.planner_status == PlannerStatus.ARRIVED.code)
     stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
-    per_pair = geometry.margins_deg(run.sigma_bn).min(axis=0)
+    infeasible = bool(np.any(run.planner_status == PlannerStatus.INFEASIBLE.code))
+    # Every constraint (keep-out pairs, then keep-in cones), at the samples.
+    per_constraint = geometry.constraint_margins_deg(run.sigma_bn).min(axis=0)
     # Planner cost while it is working (arrived/stuck steps return at once).
     tracking = run.planner_status == PlannerStatus.TRACKING.code
     step_s = run.planner_step_s[tracking] if tracking.any() else run.planner_step_s
@@ -65,12 +75,12 @@ def summarize(run: RunResult) -> dict[str, Any]:
         "t_reach_s": None if t_reach is None else round(t_reach, 9),
         "t_plan_arrival_s": round(float(run.t[arrived[0]]), 9) if len(arrived) else None,
         "planner_stuck": stuck,
+        "planner_infeasible": infeasible,
+        "infeasible_reason": (run.planner_reason or None) if infeasible else None,
         "min_margin_deg": min_margin,
         "t_min_margin_s": round(t_min, 9),
         "min_margin_deg_per_pair": {
-            f"{sc.instrument_names[i]}/{sc.bright_object_names[j]}": float(per_pair[i, j])
-            for i in range(len(sc.instrument_names))
-            for j in range(len(sc.bright_object_names))
+            name: float(m) for name, m in zip(sc.constraint_names, per_constraint, strict=True)
         },
         "path_length_mrp": path_length_mrp(run.sigma_bn),
         "target_path_length_mrp": path_length_mrp(run.sigma_t),
@@ -79,6 +89,9 @@ def summarize(run: RunResult) -> dict[str, Any]:
         "peak_rate_rad_s": float(np.max(np.linalg.norm(run.omega_b, axis=1))),
         "peak_torque_nm": float(np.max(np.linalg.norm(run.torque_b, axis=1))),
         **_against_limits(run, t_reach),
+        "route_rotation_deg": (
+            None if not np.isfinite(run.route_rotation_deg) else float(run.route_rotation_deg)
+        ),
         "planner_step_us_median": float(np.median(step_s) * 1e6),
         "planner_step_us_p99": float(np.percentile(step_s, 99) * 1e6),
         "sim_time_s": sc.sim_time_s,

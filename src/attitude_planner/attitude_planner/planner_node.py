@@ -11,6 +11,12 @@ state's stamp: ``/planner/target_mrp`` (``sigma_t`` = sigma_RN),
 attitude, eq. 5) and ``/diagnostics``; ``/planner/status`` (a ``PlannerStatus`` value,
 ``arrived`` only when the body is on the goal) is latched and published on change.
 
+Before the first state it prepares the global route (the roadmap and the route from the
+scenario's start; :mod:`attitude_core.route`): a slew with no route is reported
+``infeasible`` at the first state, with the reason in ``/diagnostics`` (``reason``)
+and in the log, and the target holds the start. Routes planned again during the run
+(when the target stalls) are computed in a worker thread, off the message callbacks.
+
 It only reacts to messages, so lockstep simulation, real time and a hardware bridge
 look the same to it. The planner starts from the first measured attitude (equal to the
 scenario's ``initial_mrp`` on a fresh run), so a restarted planner resumes from where
@@ -22,8 +28,10 @@ counted.
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
+import numpy as np
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped
 from rclpy.node import Node
@@ -55,8 +63,13 @@ class FepfPlannerNode(Node):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__(node_graph.PLANNER.node_name, **kwargs)
         _, self.scenario = declare_scenario_node(self, node_graph.PLANNER.parameters)
-        self.exact = self.scenario.keep_out(samples=16)
-        FepfPlanner.from_scenario(self.scenario)  # builds the FIS lookup tables up front
+        self.exact = self.scenario.cone_geometry(samples=16)
+        # Up front: the FIS lookup tables, the roadmap and the route from the scenario's
+        # start (taken as is when the first measured attitude is that start).
+        prepared = FepfPlanner.from_scenario(self.scenario)
+        self.routes = Guidance.route_planner(self.scenario, prepared.geometry.inflation_deg)
+        self.initial_route = self.routes.plan(self.scenario.initial_mrp, self.scenario.desired_mrp)
+        self.route_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="route")
         self.guidance: Guidance | None = None
         self.first_stamp_ns = 0
         self.last_stamp_ns: int | None = None
@@ -130,9 +143,24 @@ class FepfPlannerNode(Node):
         for old in [s for s in self.pending if s <= stamp]:
             del self.pending[old]
         if self.guidance is None:
-            self.guidance = Guidance.from_scenario(self.scenario, sigma_0=sigma_bn)
+            fresh = np.allclose(sigma_bn, self.scenario.initial_mrp, rtol=0.0, atol=1e-9)
+            self.guidance = Guidance.from_scenario(
+                self.scenario,
+                sigma_0=sigma_bn,
+                executor=self.route_thread,
+                routes=self.routes,
+                initial_route=self.initial_route if fresh else None,
+            )
             self.first_stamp_ns = stamp
             self.get_logger().info(f"planning from sigma_BN = {sigma_bn.round(6).tolist()}")
+            route = self.guidance.route
+            if route is not None and route.feasible:
+                self.get_logger().info(
+                    f"global route: {route.legs} leg(s), {np.degrees(route.rotation_rad):.1f} deg "
+                    f"of rotation, clearance {route.clearance_deg:.2f} deg"
+                )
+            elif route is not None:
+                self.get_logger().error(f"infeasible: {route.reason}")
         t0 = time.perf_counter()
         t_s = (stamp - self.first_stamp_ns) / NS_PER_S
         result = self.guidance.update(t_s, sigma_bn, omega_b)
@@ -158,6 +186,18 @@ class FepfPlannerNode(Node):
             self.pub_status.publish(String(data=out.status.value))
             self.get_logger().info(f"status {out.status} at stamp {stamp / 1e9:.3f} s")
 
+    def close(self) -> None:
+        """On every way out: stop the route thread (a route in progress is dropped)."""
+        self.route_thread.shutdown(wait=False, cancel_futures=True)
+
+    def route_values(self) -> tuple[float, int, str]:
+        """The route followed and the infeasibility reason, for ``/diagnostics``."""
+        guidance = self.guidance
+        route = None if guidance is None else guidance.route
+        if route is None or not route.feasible:
+            return float("nan"), 0, "" if guidance is None else guidance.reason
+        return float(np.degrees(route.rotation_rad)), len(route.waypoints), ""
+
     def publish(self) -> None:
         self.pub_mrp.publish(self.out_mrp)
         self.pub_rate.publish(self.out_rate)
@@ -178,6 +218,7 @@ class FepfPlannerNode(Node):
             result.goal_error_deg,
             result.speed_factor,
             result.derating,
+            *self.route_values(),
         )
         status = DiagnosticStatus(
             level=bytes([out.status.level]),

@@ -139,7 +139,7 @@ def declare_node_parameters(
         # Each distinct name once: a duplicate is the loader's to report, on the list.
         return tuple(dict.fromkeys(n for n in (names or ()) if isinstance(n, str)))
 
-    for row in scenario_keys(listed("instruments"), listed("bright_objects")):
+    for row in scenario_keys(*(listed(g) for g in GROUPS)):
         if row not in names_rows and table.reads_scenario_key(row.key):
             declare_scenario_row(row)
     # Every other parameter given to this node: scenario keys it does not read, and typos.

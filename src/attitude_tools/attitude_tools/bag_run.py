@@ -93,6 +93,7 @@ def run_from_bag(
     status = np.full(n, PlannerStatus.TRACKING.code, dtype=np.int8)
     d_obs = np.full(n, np.nan)
     step_s = np.full(n, np.nan)
+    reason, route_deg = "", float("nan")
     for k, s in enumerate(states[:n]):
         diag = by_topic[DIAGNOSTICS].get(s)
         if diag is None or not diag.status:
@@ -106,6 +107,9 @@ def run_from_bag(
         status[k] = planner.status.code
         d_obs[k] = planner.obstacle_distance_mrp
         step_s[k] = planner.step_time_s
+        reason = planner.reason or reason
+        if np.isnan(route_deg):
+            route_deg = planner.route_rotation_deg
     run = RunResult(
         scenario=scenario,
         t=(stamps - stamps[0]) * 1e-9,
@@ -118,6 +122,8 @@ def run_from_bag(
         planner_status=status,
         planner_step_s=step_s,
         wall_time_s=wall_time_s,
+        planner_reason=reason,
+        route_rotation_deg=route_deg,
     )
     return BagRun(
         run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64), len(states) - n

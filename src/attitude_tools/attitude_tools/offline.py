@@ -2,7 +2,8 @@
 
 Writes ``DIR/summary.json`` (:func:`attitude_core.trajectory.summarize`) and
 ``DIR/timeseries.csv``, staged and published whole (:mod:`attitude_tools.rundir`).
-Exit code: 0 reached without violation, 1 otherwise, 2 bad input.
+Exit code: 0 reached without violation, 1 otherwise (an infeasible slew says why on
+stderr), 2 bad input.
 """
 
 from __future__ import annotations
@@ -44,7 +45,7 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
     out = check_replaceable(out_dir, ("summary.json",), "run directory")
     tmp = stage(out, ".tmp-run-")
     try:
-        margins = run.scenario.keep_out().min_margin_deg(run.sigma_bn)
+        margins = run.scenario.cone_geometry().min_margin_deg(run.sigma_bn)
         table = np.column_stack(
             [
                 run.t,
@@ -98,6 +99,9 @@ def main(argv=None) -> int:
         return 2
     if not args.quiet:
         print(json.dumps(summary, indent=2))
+    if summary["planner_infeasible"]:
+        print(f"attitude-offline: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
+        return 1
     return 0 if summary["reached"] and summary["min_margin_deg"] > 0.0 else 1
 
 

@@ -386,6 +386,9 @@ def main(argv=None) -> int:
         return 2 if isinstance(err, FileExistsError) else 1
     if not args.quiet:
         print(json.dumps(summary, indent=2))
+    if summary["planner_infeasible"]:
+        print(f"attitude-run: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
+        return 1
     ok = summary["reached"] and summary["min_margin_deg"] > 0.0 and not summary["failure"]
     return 0 if ok else 1
 

@@ -3,8 +3,16 @@
 The random stream of run ``i`` is ``numpy.random.default_rng([seed, i])``, so a run
 draws the same scenario whatever the worker, the partitioning or the order. Every draw
 goes through the one scenario loader (``loads_scenario``); a draw whose start or goal
-lies within ``min_end_margin_deg`` of a cone (checked first, on the drawn values), or
-that the loader refuses, is counted and redrawn.
+lies within ``min_end_margin_deg`` of a constraint boundary (a keep-out cone, or the rim
+of a keep-in cone; checked first, on the drawn values), or that the loader refuses, is
+counted and redrawn.
+
+The stream is consumed in a fixed order: instrument and object counts, boresights and
+half-angles, object directions, start and goal, then the optional dispersions (inertia,
+initial rate, actuators) and last the keep-in cones (count, then per cone a body axis,
+an inertial direction, both uniform on the unit sphere, and a largest angle uniform in
+``max_angle_deg``). An optional dispersion that the SPEC does not give draws nothing, so
+adding one to the list never changes the runs of a SPEC without it.
 """
 
 from __future__ import annotations
@@ -20,6 +28,7 @@ from scipy.spatial.transform import Rotation
 from attitude_core.constraints import margins_deg_from_dcm
 from attitude_core.scenario import Scenario, ScenarioError, flatten_parameters, loads_scenario
 from attitude_core.scenario import scenario_yaml as to_yaml
+from attitude_core.scenario_schema import GROUPS
 from attitude_core.yamlio import load_strict
 
 from .spec import MAX_REDRAWS, CampaignSpec
@@ -68,7 +77,9 @@ def _uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
 def _candidate(
     spec: CampaignSpec, base: dict[str, Any], i: int, rng: np.random.Generator
 ) -> dict[str, Any]:
-    flat = {k: v for k, v in base.items() if not k.startswith(("instruments.", "bright_objects."))}
+    # Drawn groups replace the base's; without a keep-in dispersion its cones are kept.
+    drawn = [g for g in GROUPS if g != "keep_in" or spec.keep_in_count is not None]
+    flat = {k: v for k, v in base.items() if k.split(".", 1)[0] not in drawn}
     flat["scenario_name"] = f"{spec.name}_{i}"
     if spec.sim_time_s is not None:
         flat["sim_time_s"] = spec.sim_time_s
@@ -103,19 +114,39 @@ def _candidate(
         flat["actuators.max_rate_rad_s"] = _uniform(
             rng, spec.max_rate_rad_s.lo, spec.max_rate_rad_s.hi
         )
+    if spec.keep_in_count is not None and spec.keep_in_max_angle_deg is not None:
+        n_keep = int(rng.integers(spec.keep_in_count[0], spec.keep_in_count[1] + 1))
+        if n_keep:  # none: no keep_in key (a ROS 2 parameters file has no empty list)
+            flat["keep_in.names"] = [f"keep_in_{k}" for k in range(n_keep)]
+        for k in range(n_keep):
+            flat[f"keep_in.keep_in_{k}.axis_body"] = _unit(rng)
+            flat[f"keep_in.keep_in_{k}.direction_inertial"] = _unit(rng)
+            flat[f"keep_in.keep_in_{k}.max_angle_deg"] = _uniform(
+                rng, spec.keep_in_max_angle_deg.lo, spec.keep_in_max_angle_deg.hi
+            )
     return flat
 
 
 def _end_margin_deg(flat: dict[str, Any]) -> float:
-    """The smallest keep-out margin (eq. 5) of the drawn start and goal attitudes."""
+    """The smallest margin of the drawn start and goal attitudes over every constraint:
+    keep-out (eq. 5) and keep-in (``max_angle_deg`` minus the axis' angle to its
+    direction)."""
     inst = flat["instruments.names"]
     objs = flat["bright_objects.names"]
     s = np.array([flat[f"instruments.{n}.boresight_body"] for n in inst], dtype=float)
     beta = np.array([flat[f"instruments.{n}.half_angle_deg"] for n in inst], dtype=float)
     c = np.array([flat[f"bright_objects.{n}.direction_inertial"] for n in objs], dtype=float)
     ends = np.array([flat["initial_mrp"], flat["desired_mrp"]], dtype=float)
-    c_bn = np.linalg.inv(Rotation.from_mrp(ends).as_matrix())  # C_BN = (C_NB)^T
-    return float(margins_deg_from_dcm(c_bn, s, beta, c).min())
+    rotation = Rotation.from_mrp(ends)  # active: C_NB = C_BN^T
+    c_bn = np.linalg.inv(rotation.as_matrix())
+    smallest = float(margins_deg_from_dcm(c_bn, s, beta, c).min())
+    for n in flat.get("keep_in.names", ()):
+        a = np.asarray(flat[f"keep_in.{n}.axis_body"], dtype=float)
+        d = np.asarray(flat[f"keep_in.{n}.direction_inertial"], dtype=float)
+        cos = rotation.apply(a / np.linalg.norm(a)) @ (d / np.linalg.norm(d))
+        angle = np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+        smallest = min(smallest, float(flat[f"keep_in.{n}.max_angle_deg"] - angle.max()))
+    return smallest
 
 
 def scenario_text(flat: dict[str, Any]) -> str:
@@ -143,6 +174,6 @@ def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int, variant: str | No
         return Draw(i, flat, sc, refused, close)
     raise RuntimeError(
         f"run {i}: no valid scenario in {MAX_REDRAWS} draws ({refused} refused by the "
-        f"loader, {close} within {spec.min_end_margin_deg} deg of a cone): "
+        f"loader, {close} within {spec.min_end_margin_deg} deg of a constraint): "
         "the dispersions cannot be met"
     )

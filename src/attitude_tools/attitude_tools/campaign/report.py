@@ -1,8 +1,9 @@
 """``DIR/report.html`` of a campaign: one self-contained page (figures as base64 PNG).
 
 Histograms of the body margin, the arrival time and the rotation ratio (variants
-overlaid); outcome rates by number of bright objects and of instruments, per variant;
-the variants side by side; and the worst runs with their reproducer files.
+overlaid); outcome rates by number of bright objects, of instruments and (when the
+campaign draws any) of keep-in cones, per variant; the variants side by side; and the
+worst runs with their reproducer files.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ def _png(fig) -> str:
 def _histograms(frame: pd.DataFrame) -> str:
     fig, axes = plt.subplots(1, 3, figsize=(13.5, 3.8))
     panels = (
-        ("min_margin_deg", "min body keep-out margin (deg), all runs", False),
+        ("min_margin_deg", "min body constraint margin (deg), all runs", False),
         ("t_reach_s", "arrival time (s), reached runs", True),
         ("rotation_ratio", "rotation flown / eigenaxis angle, reached runs", True),
     )
@@ -93,6 +94,16 @@ def _rates_by(frame: pd.DataFrame, column: str, label: str) -> str:
         ax.set_title(f"{variant}: outcome by {label}", fontsize=10)
     axes[0][-1].legend(loc="lower right", fontsize=8)
     return _png(fig)
+
+
+def _keep_in_rates(frame: pd.DataFrame) -> list[str]:
+    """The outcome by number of keep-in cones, for a campaign that has any."""
+    if "n_keep_in" not in frame or not (frame["n_keep_in"].fillna(0) > 0).any():
+        return []
+    return [
+        "<h2>Outcome by number of keep-in cones</h2>",
+        _rates_by(frame, "n_keep_in", "keep-in cones"),
+    ]
 
 
 def _variants_table(summary: dict[str, Any]) -> str:
@@ -155,6 +166,7 @@ def write_report(path, frame: pd.DataFrame, summary: dict[str, Any], worst: pd.D
         _rates_by(frame, "n_objects", "bright objects"),
         "<h2>Outcome by number of instruments</h2>",
         _rates_by(frame, "n_instruments", "instruments"),
+        *_keep_in_rates(frame),
         f"<h2>The {len(worst)} worst runs</h2>",
         "<p>Failures first (violated, infeasible, stuck, not reached), then the lowest "
         "body margin, then the highest rotation ratio. Each reproducer is a complete "

@@ -17,7 +17,12 @@ campaigns")::
         inertia_scale: [0.9, 1.1]              # optional
         initial_rate_rad_s: 0.0                # optional
         actuators: {max_torque_nm: [0.01, 0.1], max_rate_rad_s: [0.02, 0.1]}  # optional
+        keep_in: {count: [1, 2], max_angle_deg: [60.0, 120.0]}  # optional
       planner_variants: [improved, paper]
+
+Without ``dispersions.keep_in`` the base scenario's keep-in cones (if any) are kept and
+no random number is drawn for them, so a SPEC draws the same runs as before the key
+existed.
 """
 
 from __future__ import annotations
@@ -72,6 +77,9 @@ class CampaignSpec:
     max_rate_rad_s: Range | None
     planner_variants: tuple[str, ...]
     source: str
+    # Keep-in cones drawn per run (None: the base scenario's, drawing nothing).
+    keep_in_count: tuple[int, int] | None = None
+    keep_in_max_angle_deg: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
@@ -88,6 +96,7 @@ _DISPERSIONS = {
     "inertia_scale",
     "initial_rate_rad_s",
     "actuators",
+    "keep_in",
 }
 
 
@@ -132,10 +141,10 @@ class _Reader:
             raise self.fail(key, f"low {a:g} is above high {b:g}")
         return Range(a, b)
 
-    def count(self, value: Any, key: str) -> tuple[int, int]:
+    def count(self, value: Any, key: str, lo: int = 1) -> tuple[int, int]:
         if not isinstance(value, list) or len(value) != 2:
             raise self.fail(key, f"expected [min, max], got {value!r}")
-        a, b = self.integer(value[0], key, 1), self.integer(value[1], key, 1)
+        a, b = self.integer(value[0], key, lo), self.integer(value[1], key, lo)
         if a > b:
             raise self.fail(key, f"min {a} is above max {b}")
         return a, b
@@ -200,6 +209,16 @@ def load_spec(path: str | Path) -> CampaignSpec:
             torque = r.pair(act["max_torque_nm"], f"{key}.actuators.max_torque_nm", 0.0, True)
         if act.get("max_rate_rad_s") is not None:
             rate = r.pair(act["max_rate_rad_s"], f"{key}.actuators.max_rate_rad_s", 0.0, True)
+    keep_in_count = keep_in_angle = None
+    if d.get("keep_in") is not None:
+        ki = r.mapping(d["keep_in"], f"{key}.keep_in", {"count", "max_angle_deg"})
+        for required in ("count", "max_angle_deg"):
+            if required not in ki:
+                raise r.fail(f"{key}.keep_in.{required}", "missing")
+        keep_in_count = r.count(ki["count"], f"{key}.keep_in.count", lo=0)
+        keep_in_angle = r.pair(ki["max_angle_deg"], f"{key}.keep_in.max_angle_deg", 0.0, True)
+        if keep_in_angle.hi >= 180.0:
+            raise r.fail(f"{key}.keep_in.max_angle_deg", "must be below 180 deg")
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)
@@ -227,4 +246,6 @@ def load_spec(path: str | Path) -> CampaignSpec:
         max_rate_rad_s=rate,
         planner_variants=tuple(variants),
         source=source,
+        keep_in_count=keep_in_count,
+        keep_in_max_angle_deg=keep_in_angle,
     )

@@ -30,8 +30,9 @@ TIMING_COLUMNS = ("planner_step_us_median", "wall_time_s", "loop_s", "metrics_s"
 
 
 def outcome_of(summary: dict[str, Any], statuses: np.ndarray) -> str:
-    """``violated`` (the body inside a cone, dense), else ``reached``, else the planner's
-    ``infeasible`` or ``stuck``, else ``not_reached``."""
+    """``violated`` (the body inside a keep-out cone or outside a keep-in cone, dense),
+    else ``reached``, else the planner's ``infeasible`` or ``stuck``, else
+    ``not_reached``."""
     if summary["min_margin_deg"] <= 0.0:
         return "violated"
     if summary["reached"]:
@@ -73,6 +74,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "seed": spec.seed,
         "n_instruments": len(sc.instrument_names),
         "n_objects": len(sc.bright_object_names),
+        "n_keep_in": len(sc.keep_in_names),
         "redraws_refused": draw.refused_by_loader,
         "redraws_too_close": draw.too_close_to_a_cone,
         **{f"sigma_0_{k + 1}": float(sc.initial_mrp[k]) for k in range(3)},

@@ -4,8 +4,15 @@ The paper's simulation section shows the keep-out cones in the inertial frame an
 regions in MRP space (its Fig. "Keep-Out Constraints"), the MRP trajectory among the
 regions and the boresight trajectory on the right ascension / declination plane
 ("Trajectory" figures), and the time histories of the MRPs, the angular velocity and
-the torque ("Time History of the States"). ``FIGURES`` lists them, plus the keep-out
-margin against time.
+the torque ("Time History of the States"). ``FIGURES`` lists them, plus the margin of
+every constraint against time.
+
+Keep-in cones (a body axis that must stay within an angle of an inertial direction)
+appear wherever keep-out cones do, drawn dashed in green and labelled ``keep_in/<name>``
+(the summary's constraint label): the allowed cone on the sky, the axis' inertial track
+in its own panel of the boresight figure, the boundary in MRP space and its margin
+against time. Their artists carry ``gid`` ``keep_in/<name>/<part>`` (``cone``,
+``axis``, ``surface``, ``margin``), so a test can find them.
 """
 
 from __future__ import annotations
@@ -28,11 +35,14 @@ from attitude_core.metrics import arrival_time
 from attitude_core.mrp import to_principal
 
 from .geometry import (
+    KeepIn,
     Pair,
     best_view,
     boresight_inertial,
     break_jumps,
     break_wraps,
+    keep_in_margin_on_sky,
+    keep_ins_of,
     mrp_surface,
     pair_margin_on_sky,
     pairs_of,
@@ -53,13 +63,16 @@ FIGURES = {
         "Keep-out cones in the inertial frame",
         "Each cone (the instrument's half-angle about the bright object) drawn as a true "
         "small circle on the sky, right ascension / declination (paper: Keep-Out "
-        "Constraints, inertial space).",
+        "Constraints, inertial space); each keep-in cone (the largest angle allowed about "
+        "its direction) dashed in green.",
     ),
     "keepout_mrp.png": (
         "Keep-out regions in MRP space",
         "Zero level set of the margin of each instrument/object pair inside the unit ball "
         "|sigma| <= 1 (marching cubes, clipped at the unit sphere, drawn as a wireframe) "
-        "(paper: Keep-Out Constraints, MRP space).",
+        "(paper: Keep-Out Constraints, MRP space); each keep-in cone's boundary (the zero "
+        "level set of its margin) as a faint green surface, start and goal on its allowed "
+        "side.",
     ),
     "trajectory_mrp.png": (
         "MRP trajectory among the keep-out regions",
@@ -69,8 +82,8 @@ FIGURES = {
     "trajectory_boresight.png": (
         "Boresight trajectory on the sky",
         "Each instrument's boresight C_BN^T s_i on the right ascension / declination "
-        "plane among its keep-out cones; start and goal marked (paper: boresight vector "
-        "trajectory).",
+        "plane among its keep-out cones, and each keep-in axis C_BN^T a_k with its allowed "
+        "cone (dashed green); start and goal marked (paper: boresight vector trajectory).",
     ),
     "history_mrp.png": (
         "Time history of the MRPs",
@@ -86,23 +99,27 @@ FIGURES = {
         "Control torque components (body axes) and norm, N m (paper: time history, torque).",
     ),
     "margin.png": (
-        "Keep-out margin against time",
+        "Constraint margins against time",
         "Angle between boresight and object minus the half-angle, for each "
-        "instrument/object pair; negative is a violation.",
+        "instrument/object pair; for each keep-in cone (dashed, keep_in/<name>) the largest "
+        "angle allowed minus the angle between its axis and its direction; negative is a "
+        "violation.",
     ),
 }
 
 RUN_COLORS = ("tab:blue", "tab:orange")
-PAIR_COLORS = (
+PAIR_COLORS = (  # no green: green is the keep-in cones'
     "tab:red",
     "tab:purple",
-    "tab:green",
+    "goldenrod",
     "tab:brown",
     "tab:pink",
     "tab:olive",
     "tab:cyan",
     "tab:gray",
 )
+KEEP_IN_COLORS = ("tab:green", "darkgreen", "yellowgreen", "mediumseagreen")
+KEEP_IN_LINE: dict[str, Any] = dict(linestyle=(0, (5, 3)), linewidth=1.8)
 COMPONENT_COLORS = ("tab:blue", "tab:orange", "tab:green")
 STYLE: dict[RcKeyType, Any] = {
     "figure.dpi": 100,
@@ -122,6 +139,11 @@ GOAL: dict[str, Any] = dict(
 )
 
 
+def _keep_in_label(cone: KeepIn) -> str:
+    axis = ", ".join(f"{x:.3g}" for x in cone.axis_body)
+    return f"{cone.key}: axis [{axis}] within {cone.max_angle_deg:g} deg"
+
+
 def _pair_label(pair: Pair, n_instruments: int) -> str:
     if n_instruments == 1:
         return f"{pair.obj} (half-angle {pair.half_angle_deg:g} deg)"
@@ -138,8 +160,13 @@ class _Context:
             {(p.instrument, p.boresight_body, p.half_angle_deg) for p in self.pairs}
         )
         self.pair_color = {p: PAIR_COLORS[k % len(PAIR_COLORS)] for k, p in enumerate(self.pairs)}
+        self.keep_ins = keep_ins_of([r.scenario for r in runs])
+        self.keep_in_color = {
+            c: KEEP_IN_COLORS[k % len(KEEP_IN_COLORS)] for k, c in enumerate(self.keep_ins)
+        }
         self.mrp_grid = mrp_grid
         self._surfaces = None
+        self._keep_in_surfaces = None
         pts = [to_principal(r.run.sigma_bn) for r in runs]
         pts += [
             to_principal(np.array([r.scenario.initial_mrp, r.scenario.desired_mrp])) for r in runs
@@ -161,6 +188,11 @@ class _Context:
         if self._surfaces is None:
             self._surfaces = [(p, mrp_surface(p, self.mrp_grid)) for p in self.pairs]
         return self._surfaces
+
+    def keep_in_surfaces(self):
+        if self._keep_in_surfaces is None:
+            self._keep_in_surfaces = [(c, mrp_surface(c, self.mrp_grid)) for c in self.keep_ins]
+        return self._keep_in_surfaces
 
     def instruments(self):
         """Distinct instruments (name, boresight, half-angle), in order."""
@@ -248,11 +280,66 @@ def _draw_cones(ctx: _Context, ax, pairs) -> list:
     return handles
 
 
+def _draw_keep_ins(ctx: _Context, ax, cones) -> list:
+    """Keep-in cones: the allowed region lightly filled, its boundary dashed, the
+    direction marked; legend handles."""
+    ra, dec, v = _sky()
+    handles: list[Artist] = []
+    for cone in cones:
+        color = ctx.keep_in_color[cone]
+        margin = keep_in_margin_on_sky(cone, v)
+        if margin.max() > 0.0:
+            top = margin.max() + 1.0
+            ax.contourf(ra, dec, margin, levels=[0.0, top], colors=[color], alpha=0.08)
+        cra, cdec = break_wraps(
+            *ra_dec_deg(small_circle(cone.direction_inertial, cone.max_angle_deg))
+        )
+        ax.plot(cra, cdec, color=color, gid=f"{cone.key}/cone", zorder=4, **KEEP_IN_LINE)
+        dra, ddec = ra_dec_deg(np.array(cone.direction_inertial))
+        ax.plot(
+            dra,
+            ddec,
+            marker="P",
+            color=color,
+            markeredgecolor="black",
+            markersize=9,
+            linestyle="none",
+            clip_on=False,
+            zorder=7,
+        )
+        ax.annotate(
+            cone.key,
+            (dra, ddec),
+            xytext=(5, -10),
+            textcoords="offset points",
+            fontsize=8,
+            color=color,
+            annotation_clip=False,
+        )
+        handles.append(Line2D([], [], color=color, label=_keep_in_label(cone), **KEEP_IN_LINE))
+    if cones:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                marker="P",
+                color="tab:green",
+                markeredgecolor="black",
+                linestyle="none",
+                markersize=9,
+                label="keep-in direction",
+            )
+        )
+    return handles
+
+
 def fig_keepout_inertial(ctx: _Context):
     fig, ax = plt.subplots(figsize=(11.0, 4.9))
     handles = _draw_cones(ctx, ax, ctx.pairs)
+    handles += _draw_keep_ins(ctx, ax, ctx.keep_ins)
     _sky_axes(ax)
-    ax.set_title(f"{ctx.title}: keep-out cones in the inertial frame")
+    kinds = "keep-out and keep-in cones" if ctx.keep_ins else "keep-out cones"
+    ax.set_title(f"{ctx.title}: {kinds} in the inertial frame")
     ax.legend(
         handles=handles,
         loc="upper left",
@@ -265,18 +352,20 @@ def fig_keepout_inertial(ctx: _Context):
 
 def fig_trajectory_boresight(ctx: _Context):
     instruments = ctx.instruments()
-    n = len(instruments)
+    n = len(instruments) + len(ctx.keep_ins)
     fig, axes = plt.subplots(n, 1, figsize=(11.0, 4.5 * n + 0.7), squeeze=False)
     run_handles = []
     for k, run in enumerate(ctx.runs):
         color = ctx.run_color(k)
-        label = run.label if ctx.compare else "boresight"
+        label = run.label if ctx.compare else "boresight" + (" / axis" if ctx.keep_ins else "")
         run_handles.append(Line2D([], [], color=color, linewidth=2.0, label=label))
     run_handles += [
         Line2D([], [], color="black", label="start", **START),
         Line2D([], [], color="black", markerfacecolor="black", label="goal", **GOAL),
     ]
-    for ax, (name, s_body, beta) in zip(axes[:, 0], instruments, strict=True):
+    for ax, cone in zip(axes[len(instruments) :, 0], ctx.keep_ins, strict=True):
+        _keep_in_axis_panel(ctx, ax, cone)
+    for ax, (name, s_body, beta) in zip(axes[: len(instruments), 0], instruments, strict=True):
         pairs = [
             p
             for p in ctx.pairs
@@ -317,6 +406,42 @@ def fig_trajectory_boresight(ctx: _Context):
     return fig
 
 
+def _keep_in_axis_panel(ctx: _Context, ax, cone: KeepIn) -> None:
+    """One keep-in cone on the sky: its allowed cone and each run's axis track."""
+    handles = _draw_keep_ins(ctx, ax, [cone])
+    for k, run in enumerate(ctx.runs):
+        sc = run.scenario
+        if _keep_in_index(run, cone) is None:
+            continue
+        color = ctx.run_color(k)
+        a = np.asarray(cone.axis_body)
+        track = boresight_inertial(run.run.sigma_bn, a)
+        ax.plot(
+            *break_wraps(*ra_dec_deg(track)),
+            color=color,
+            linewidth=2.0,
+            zorder=5,
+            gid=f"{cone.key}/axis",
+        )
+        a0 = ra_dec_deg(boresight_inertial(sc.initial_mrp[None], a)[0])
+        ad = ra_dec_deg(boresight_inertial(sc.desired_mrp[None], a)[0])
+        ax.plot(*a0, markeredgecolor=color, zorder=6, **START)
+        ax.plot(*ad, markerfacecolor=color, zorder=6, **GOAL)
+    _sky_axes(ax)
+    ax.set_title(
+        f"{cone.key}: axis [{', '.join(f'{x:.3g}' for x in cone.axis_body)}] (body), "
+        f"within {cone.max_angle_deg:g} deg of its direction"
+    )
+    ax.legend(
+        handles=handles,
+        loc="upper left",
+        bbox_to_anchor=(1.01, 1.0),
+        title="keep-in cone (inside allowed)",
+        fontsize=8,
+        title_fontsize=9,
+    )
+
+
 # --- MRP space ----------------------------------------------------------------------
 
 
@@ -339,6 +464,31 @@ def _mrp_axes(fig, ctx: _Context):
         ax.add_collection3d(
             Poly3DCollection(
                 surf, facecolors=color, alpha=0.33, linewidths=0.0, shade=True, lightsource=light
+            )
+        )
+    for cone, surf in ctx.keep_in_surfaces():
+        color = ctx.keep_in_color[cone]
+        handles.append(
+            Patch(
+                facecolor=color,
+                alpha=0.3,
+                edgecolor=color,
+                linestyle="--",
+                label=f"{cone.key} boundary (keep-in)"
+                + ("" if surf is not None else " (outside the unit ball)"),
+            )
+        )
+        if surf is None:
+            continue
+        ax.add_collection3d(  # fainter than the keep-out regions: it wraps round them
+            Poly3DCollection(
+                surf,
+                facecolors=color,
+                alpha=0.12,
+                linewidths=0.0,
+                shade=True,
+                lightsource=light,
+                gid=f"{cone.key}/surface",
             )
         )
     u = np.linspace(0.0, 2.0 * np.pi, 37)
@@ -604,12 +754,41 @@ def _run_pair_margins(run, pair: Pair):
             if (nm, obj) == (pair.instrument, pair.obj) and np.allclose(
                 sc.directions_inertial[j], pair.direction_inertial
             ):
-                return sc.keep_out().margins_deg(run.run.sigma_bn)[:, i, j]
+                return sc.cone_geometry().margins_deg(run.run.sigma_bn)[:, i, j]
     return None
 
 
+def _keep_in_index(run, cone: KeepIn) -> int | None:
+    """Index of the run's keep-in cone equal to ``cone`` (None: the run has none)."""
+    sc = run.scenario
+    for k, name in enumerate(sc.keep_in_names):
+        if (
+            name == cone.name
+            and np.allclose(sc.keep_in_axes_body[k], cone.axis_body)
+            and np.allclose(sc.keep_in_directions_inertial[k], cone.direction_inertial)
+            and abs(float(sc.keep_in_max_angles_deg[k]) - cone.max_angle_deg) < 1e-9
+        ):
+            return k
+    return None
+
+
+def _run_keep_in_margins(run, cone: KeepIn):
+    """Margin (deg) against time of the run's keep-in cone equal to ``cone``."""
+    k = _keep_in_index(run, cone)
+    if k is None:
+        return None
+    return run.scenario.cone_geometry().keep_in_margins_deg(run.run.sigma_bn)[:, k]
+
+
+def _run_margins(run, constraint: Pair | KeepIn):
+    if isinstance(constraint, KeepIn):
+        return _run_keep_in_margins(run, constraint)
+    return _run_pair_margins(run, constraint)
+
+
 def fig_margin(ctx: _Context):
-    p: Pair | None  # a pair, or None for the all-pairs panel
+    p: Pair | KeepIn | None  # a constraint, or None for the all-constraints panel
+    constraints: list[Pair | KeepIn] = [*ctx.pairs, *ctx.keep_ins]
     if not ctx.compare:
         run = ctx.runs[0]
         fig, ax = plt.subplots(figsize=(9.0, 5.0))
@@ -623,6 +802,15 @@ def fig_margin(ctx: _Context):
                 linewidth=1.6,
                 label=f"{p.instrument} / {p.obj}",
             )
+        for c in ctx.keep_ins:
+            ax.plot(
+                run.run.t,
+                _run_keep_in_margins(run, c),
+                color=ctx.keep_in_color[c],
+                label=c.key,
+                gid=f"{c.key}/margin",
+                **KEEP_IN_LINE,
+            )
         ax.axhline(0.0, color="black", linestyle="--", linewidth=1.0, label="zero margin")
         s = run.summary
         ax.plot(
@@ -634,14 +822,15 @@ def fig_margin(ctx: _Context):
             markersize=7,
             label=f"minimum {s['min_margin_deg']:.2f} deg at {s['t_min_margin_s']:g} s",
         )
-        _margin_limits(ax, [_run_pair_margins(run, p) for p in ctx.pairs])
+        _margin_limits(ax, [_run_margins(run, c) for c in constraints])
         ax.set_xlabel("time (s)")
-        ax.set_ylabel("keep-out margin (deg)")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), title="instrument / object")
-        ax.set_title(f"{ctx.title}: keep-out margin")
+        ax.set_ylabel("keep-out margin (deg)" if not ctx.keep_ins else "margin (deg)")
+        title = "instrument / object" + (", keep-in cone" if ctx.keep_ins else "")
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=title)
+        ax.set_title(f"{ctx.title}: {'keep-out ' if not ctx.keep_ins else 'constraint '}margin")
         return fig
-    # Comparison: the smallest margin over all pairs, then one panel per pair.
-    panels = [None] + list(ctx.pairs)
+    # Comparison: the smallest margin over all constraints, then one panel per constraint.
+    panels = [None, *constraints]
     n = len(panels)
     ncols = 2
     nrows = -(-n // ncols)
@@ -652,7 +841,7 @@ def fig_margin(ctx: _Context):
         series = []
         for k, run in enumerate(ctx.runs):
             if p is None:
-                m = run.scenario.keep_out().min_margin_deg(run.run.sigma_bn)
+                m = run.scenario.cone_geometry().min_margin_deg(run.run.sigma_bn)
                 s = run.summary
                 ax.plot(
                     [s["t_min_margin_s"]],
@@ -665,16 +854,20 @@ def fig_margin(ctx: _Context):
                     zorder=5,
                 )
             else:
-                m = _run_pair_margins(run, p)
+                m = _run_margins(run, p)
             if m is None:
                 continue
             series.append(m)
-            ax.plot(run.run.t, m, color=RUN_COLORS[k], linewidth=1.5)
+            style = KEEP_IN_LINE if isinstance(p, KeepIn) else {"linewidth": 1.5}
+            gid = f"{p.key}/margin" if isinstance(p, KeepIn) else None
+            ax.plot(run.run.t, m, color=RUN_COLORS[k], gid=gid, **style)
         ax.axhspan(-180.0, 0.0, color="tab:red", alpha=0.07, linewidth=0)
         ax.axhline(0.0, color="black", linestyle="--", linewidth=1.0)
         _margin_limits(ax, series)
         if p is None:
-            ax.set_title("all pairs: smallest margin")
+            ax.set_title(f"all {'constraints' if ctx.keep_ins else 'pairs'}: smallest margin")
+        elif isinstance(p, KeepIn):
+            ax.set_title(f"{p.key} (keep-in)", color=ctx.keep_in_color[p])
         else:
             ax.set_title(f"{p.instrument} / {p.obj}", color=ctx.pair_color[p])
         ax.set_ylabel("margin (deg)")
@@ -701,7 +894,8 @@ def fig_margin(ctx: _Context):
         )
     )
     fig.legend(handles=handles, loc="outside lower center", ncol=len(handles))
-    fig.suptitle(f"{ctx.title}: keep-out margin per instrument / object")
+    per = "instrument / object" + (" and keep-in cone" if ctx.keep_ins else "")
+    fig.suptitle(f"{ctx.title}: {'keep-out ' if not ctx.keep_ins else ''}margin per {per}")
     return fig
 
 

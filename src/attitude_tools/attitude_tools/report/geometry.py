@@ -1,5 +1,6 @@
-"""Numbers behind the figures: sky coordinates, keep-out circles, boresight paths and
-MRP-space keep-out surfaces. Plain NumPy (and scikit-image for marching cubes).
+"""Numbers behind the figures: sky coordinates, keep-out and keep-in circles, boresight
+and keep-in axis paths, and the MRP-space surfaces of both kinds of constraint. Plain
+NumPy (and scikit-image for marching cubes).
 """
 
 from __future__ import annotations
@@ -10,12 +11,15 @@ from typing import cast
 import numpy as np
 from skimage.measure import marching_cubes
 
-from attitude_core.constraints import KeepOutGeometry
+from attitude_core.constraints import ConeGeometry, KeepInCones
 from attitude_core.mrp import Vec3, dcm_from_mrp
 
 __all__ = [
     "Pair",
     "pairs_of",
+    "KeepIn",
+    "keep_ins_of",
+    "keep_in_margin_on_sky",
     "ra_dec_deg",
     "break_wraps",
     "small_circle",
@@ -43,13 +47,76 @@ class Pair:
     def key(self) -> str:
         return f"{self.instrument}/{self.obj}"
 
-    def geometry(self) -> KeepOutGeometry:
-        return KeepOutGeometry(
+    def geometry(self) -> ConeGeometry:
+        return ConeGeometry(
             np.array([self.boresight_body]),
             np.array([self.half_angle_deg]),
             np.array([self.direction_inertial]),
             samples=8,
         )
+
+    def margins_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """This cone's exact margin at attitude(s) ``sigma_bn`` (shape ``(...)``)."""
+        margins: np.ndarray = self.geometry().margins_deg(sigma_bn)[..., 0, 0]
+        return margins
+
+
+@dataclass(frozen=True)
+class KeepIn:
+    """One keep-in cone: body axis ``a`` within ``max_angle_deg`` of inertial ``d``."""
+
+    name: str
+    axis_body: tuple[float, float, float]
+    direction_inertial: tuple[float, float, float]
+    max_angle_deg: float
+
+    @property
+    def key(self) -> str:
+        """The constraint's label (``Scenario.constraint_names``, the summary's keys)."""
+        return f"keep_in/{self.name}"
+
+    def geometry(self) -> ConeGeometry:
+        return ConeGeometry(
+            np.zeros((0, 3)),
+            np.zeros(0),
+            np.zeros((0, 3)),
+            samples=8,
+            keep_in=KeepInCones(
+                np.array([self.axis_body]),
+                np.array([self.direction_inertial]),
+                np.array([self.max_angle_deg]),
+            ),
+        )
+
+    def margins_deg(self, sigma_bn: np.ndarray) -> np.ndarray:
+        """This cone's exact margin at attitude(s) ``sigma_bn`` (shape ``(...)``)."""
+        margins: np.ndarray = self.geometry().keep_in_margins_deg(sigma_bn)[..., 0]
+        return margins
+
+
+def keep_ins_of(scenarios) -> list[KeepIn]:
+    """Every keep-in cone of the scenarios, each distinct cone once, in order."""
+    out: list[KeepIn] = []
+    for sc in scenarios:
+        for k, name in enumerate(sc.keep_in_names):
+            cone = KeepIn(
+                name,
+                cast(Vec3, tuple(float(x) for x in sc.keep_in_axes_body[k])),
+                cast(Vec3, tuple(float(x) for x in sc.keep_in_directions_inertial[k])),
+                float(sc.keep_in_max_angles_deg[k]),
+            )
+            if not any(_same_keep_in(cone, other) for other in out):
+                out.append(cone)
+    return out
+
+
+def _same_keep_in(p: KeepIn, q: KeepIn) -> bool:
+    return (
+        p.name == q.name
+        and np.allclose(p.axis_body, q.axis_body, atol=1e-12)
+        and np.allclose(p.direction_inertial, q.direction_inertial, atol=1e-12)
+        and abs(p.max_angle_deg - q.max_angle_deg) < 1e-12
+    )
 
 
 def pairs_of(scenarios) -> list[Pair]:
@@ -124,6 +191,13 @@ def pair_margin_on_sky(pair: Pair, v: np.ndarray) -> np.ndarray:
     return np.degrees(np.arccos(np.clip(v @ c, -1.0, 1.0))) - pair.half_angle_deg
 
 
+def keep_in_margin_on_sky(cone: KeepIn, v: np.ndarray) -> np.ndarray:
+    """Keep-in margin (deg) of the axis pointing along inertial ``v`` (..., 3):
+    ``max_angle_deg`` minus the angle to ``d`` (positive inside the cone)."""
+    d = np.asarray(cone.direction_inertial) / np.linalg.norm(cone.direction_inertial)
+    return cone.max_angle_deg - np.degrees(np.arccos(np.clip(v @ d, -1.0, 1.0)))
+
+
 def boresight_inertial(sigma_bn: np.ndarray, s_body: np.ndarray) -> np.ndarray:
     """Boresight in inertial axes, ``C_BN(sigma)^T s`` for each row of ``sigma_bn``."""
     s = np.asarray(s_body, dtype=float)
@@ -138,17 +212,19 @@ def break_jumps(points: np.ndarray, jump: float = 0.5) -> np.ndarray:
     return np.insert(points, cut, np.nan, axis=0)
 
 
-def mrp_surface(pair: Pair, n: int = 48, extent: float = 1.0):
-    """Zero level set of the pair's margin inside the unit ball, as triangles (T, 3, 3).
+def mrp_surface(constraint: Pair | KeepIn, n: int = 48, extent: float = 1.0):
+    """Zero level set of a keep-out pair's or a keep-in cone's margin inside the unit
+    ball, as triangles (T, 3, 3).
 
-    Marching cubes on an ``n^3`` grid of ``KeepOutGeometry.margins_deg`` over
-    ``[-extent, extent]^3``, masked to the cells that reach into ``|sigma| <= 1``, then
-    clipped exactly at the unit sphere. None when the region does not reach into the ball.
+    Marching cubes on an ``n^3`` grid of the exact margin (``constraint.margins_deg``)
+    over ``[-extent, extent]^3``, masked to the cells that reach into ``|sigma| <= 1``,
+    then clipped exactly at the unit sphere. None when the boundary does not reach into
+    the ball.
     """
     h = 2.0 * extent / (n - 1)
     axis = np.linspace(-extent, extent, n)
     grid = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), -1)
-    margin = pair.geometry().margins_deg(grid)[..., 0, 0]
+    margin = constraint.margins_deg(grid)
     # A cube is meshed when all its corners are in the mask: pad by a cell diagonal so
     # every cube that reaches into the ball is meshed.
     mask = np.linalg.norm(grid, axis=-1) <= 1.0 + 1.75 * h

@@ -26,7 +26,7 @@ ROWS = (
     ("t_reach_s", "arrival time", "s"),
     ("t_plan_arrival_s", "planner arrival time", "s"),
     ("planner_stuck", "planner stuck", ""),
-    ("min_margin_deg", "minimum keep-out margin, all pairs (between steps too)", "deg"),
+    ("min_margin_deg", "minimum margin, all constraints (between steps too)", "deg"),
     ("t_min_margin_s", "time of the minimum margin", "s"),
     (PAIR_KEY, "minimum margin at the samples", "deg"),
     ("path_length_mrp", "path length, body sigma_BN", "MRP"),
@@ -160,6 +160,23 @@ def _scenario_table(runs) -> str:
             ],
         ),
         (
+            "keep-in cones: axis (body), direction (inertial), largest angle",
+            [
+                "<br>".join(
+                    f"{e(n)}: {_vec(a)}, {_vec(d)}, {g:g} deg"
+                    for n, a, d, g in zip(
+                        r.scenario.keep_in_names,
+                        r.scenario.keep_in_axes_body,
+                        r.scenario.keep_in_directions_inertial,
+                        r.scenario.keep_in_max_angles_deg,
+                        strict=True,
+                    )
+                )
+                or "none"
+                for r in runs
+            ],
+        ),
+        (
             "initial / desired MRP",
             [f"{_vec(r.scenario.initial_mrp)} / {_vec(r.scenario.desired_mrp)}" for r in runs],
         ),
@@ -172,6 +189,8 @@ def _scenario_table(runs) -> str:
             ],
         ),
     ]
+    if not any(r.scenario.keep_in_names for r in runs):  # the row only where it says something
+        rows = [row for row in rows if not row[0].startswith("keep-in cones")]
     body = "".join(
         f"<tr><th>{e(name)}</th>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
         for name, cells in rows
@@ -218,8 +237,10 @@ def render_html(runs, figure_dir: str, figures: dict) -> str:
         "<h2>Summary</h2>",
         _summary_table(runs),
         '<p class="note">Margins are the angle between boresight and object minus the '
-        "cone half-angle (positive is safe). Arrival time: first time after which the body "
-        "stays within the arrival tolerances.</p>",
+        "cone half-angle for a keep-out pair (instrument/object), the largest angle allowed "
+        "minus the angle between axis and direction for a keep-in cone (keep_in/name); "
+        "positive is safe. Arrival time: first time after which the body stays within the "
+        "arrival tolerances.</p>",
         "<h2>Figures</h2>",
     ]
     for name, (fig_title, caption) in figures.items():
