@@ -354,6 +354,53 @@ class ConeGeometry:
                 best = m
         return best
 
+    def rotation_to_rim_deg(
+        self, sigma_bn: Vec3Like, axis_inertial: Vec3Like, rim_deg: float
+    ) -> float:
+        """Rotation (deg) about the inertial unit ``axis_inertial`` (positive sense, as
+        the body turns with its rate along that axis) until the first constraint's exact
+        margin falls to ``rim_deg``: 0 when one is already there, ``inf`` when none gets
+        there in a whole turn. Closed form: each margin's cosine along the turn is
+        ``A + R cos(phi - phi*)`` (see :func:`arc_cos_extremes`)."""
+        e1, e2, e3 = float(axis_inertial[0]), float(axis_inertial[1]), float(axis_inertial[2])
+        r0, r1, r2 = dcm_rows_from_mrp(sigma_bn)
+        rim = math.radians(rim_deg)
+        best = math.inf
+
+        def entry(vx: float, vy: float, vz: float, x: float, y: float, z: float,
+                  bound: float, keep_in: bool) -> float:  # fmt: skip
+            a = (e1 * vx + e2 * vy + e3 * vz) * (e1 * x + e2 * y + e3 * z)
+            b = x * vx + y * vy + z * vz - a
+            c = x * (e2 * vz - e3 * vy) + y * (e3 * vx - e1 * vz) + z * (e1 * vy - e2 * vx)
+            r = math.hypot(b, c)
+            k = math.cos(bound)
+            start = a + b
+            if (start <= k) if keep_in else (start >= k):
+                return 0.0  # at or past the rim already
+            if r == 0.0:
+                return math.inf
+            level = (k - a) / r
+            if abs(level) > 1.0:
+                return math.inf  # the turn never reaches the rim
+            phi_star = math.atan2(c, b)
+            half = math.acos(level)
+            phi = phi_star + half if keep_in else phi_star - half
+            return phi % _TWO_PI
+
+        for (a, b, c), beta in self._instruments_py:
+            vx = a * r0[0] + b * r1[0] + c * r2[0]
+            vy = a * r0[1] + b * r1[1] + c * r2[1]
+            vz = a * r0[2] + b * r1[2] + c * r2[2]
+            bound = math.radians(beta) + rim
+            for x, y, z in self._objects_py:
+                best = min(best, entry(vx, vy, vz, x, y, z, bound, False))
+        for (a, b, c), (x, y, z), gamma in self._keep_in_py:
+            vx = a * r0[0] + b * r1[0] + c * r2[0]
+            vy = a * r0[1] + b * r1[1] + c * r2[1]
+            vz = a * r0[2] + b * r1[2] + c * r2[2]
+            best = min(best, entry(vx, vy, vz, x, y, z, math.radians(gamma) - rim, True))
+        return math.degrees(best)
+
     # --- MRP-space obstacles --------------------------------------------------
 
     def _build_rim_circles(self) -> None:

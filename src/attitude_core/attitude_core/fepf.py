@@ -59,6 +59,7 @@ from .constraints import ConeGeometry
 from .fis_files import resolve_fis
 from .fuzzy import load_fis, lookup_table
 from .mrp import Vec3, Vec3Like, mrp_rate_single, omega_from_mrp_rate_single, relative_single
+from .route import RIM_FLOOR
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
@@ -291,7 +292,7 @@ class FepfPlanner:
         if self.relative:
             if d_obs < cfg.influence_distance_mrp:
                 arc = self.geometry.arc_min_margin_deg_single(self.sigma_t, self.goal)
-                self.goal_in_sight = arc >= self.geometry.inflation_deg
+                self.goal_in_sight = arc >= self.sight_margin_deg()
             else:
                 self.goal_in_sight = visibility == 0.0
             if self.goal_in_sight:
@@ -354,6 +355,25 @@ class FepfPlanner:
         self._checked = (safe, dt_ahead)
         return safe
 
+    def _step_keeps_margin(self, rate: Vec3, dt: float) -> bool:
+        """Whether the step along ``rate`` for ``dt`` keeps, all along, the buffer or the
+        target's own margin if lower (closed form over the eigenaxis rotation between
+        the step's ends, which the straight MRP step follows to second order)."""
+        s = self.sigma_t
+        end = (s[0] + rate[0] * dt, s[1] + rate[1] * dt, s[2] + rate[2] * dt)
+        here = self.geometry.min_margin_deg_single(s)
+        need = min(self.geometry.inflation_deg, here)
+        return self.geometry.arc_min_margin_deg_single(s, end) >= need
+
+    def sight_margin_deg(self) -> float:
+        """The margin a rotation to the goal must keep all along to count as free: the
+        buffer; from a target at or inside the buffer's rim (pushed there, or a
+        restart), :data:`attitude_core.route.RIM_FLOOR` of it or the target's own margin
+        if lower, as the route from there keeps."""
+        buffer = self.geometry.inflation_deg
+        here = self.geometry.min_margin_deg_single(self.sigma_t)
+        return buffer if here >= buffer else min(RIM_FLOOR * buffer, here) - _SIGHT_TOL_DEG
+
     def _body_rate(self, rate: Vec3) -> Vec3:
         w = omega_from_mrp_rate_single(self.sigma_t, rate)
         return (float(w[0]), float(w[1]), float(w[2]))
@@ -403,7 +423,11 @@ class FepfPlanner:
         """``(rate, end point)``: the rate shortened so that the step of ``dt`` stays
         inside the obstacle-free ball around ``sigma_t``. Inside the widened buffer (a
         restart from a measured attitude can land there) there is no such ball: then a
-        step is accepted only if it does not reduce the margin."""
+        step is accepted only if it does not reduce the margin. In the target frame a
+        step longer than the ball is also taken whole when its exact margin all along
+        keeps the buffer, or the target's own margin if lower
+        (:meth:`_step_keeps_margin`): a target grazing a buffered cone is not pinned to
+        it by ever shorter steps."""
         sx, sy, sz = self.sigma_t
         vx, vy, vz = rate
         d_obs = self.last_obstacle_distance
@@ -411,7 +435,7 @@ class FepfPlanner:
         floor = 0.5 * self.geometry.inflation_deg
         if d_obs > 0.0:
             limit = 0.9 * d_obs
-            if step_len > limit:
+            if step_len > limit and not (self.relative and self._step_keeps_margin(rate, dt)):
                 f = limit / step_len
                 vx, vy, vz = vx * f, vy * f, vz * f
         else:
@@ -516,6 +540,9 @@ class FepfPlanner:
             float(m_r),
             float(d_obs),
         )
+
+
+_SIGHT_TOL_DEG = 1e-6  # a rotation leaving an attitude starts at that attitude's margin
 
 
 def _to_target_frame(sigma: Vec3, v: Vec3, scale: float) -> Vec3:

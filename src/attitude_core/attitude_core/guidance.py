@@ -45,7 +45,7 @@ the target for that instant:
    the route, and braking curves to each turn at a waypoint keep the swing of the turn
    within half the slack (:func:`corner_speed`). While the rotation to the current
    waypoint keeps the buffer the cone braking is not needed (the target flies that
-   rotation). When the target makes no progress for half the stuck timeout, a new
+   rotation). When the target makes no progress for half ``planner.stuck_timeout_s``, a new
    route is planned from the target off the step path (``executor``, e.g. a thread)
    and followed :data:`ROUTE_LATENCY_S` of state time later, at most
    :data:`ROUTE_REPLANS` times.
@@ -69,7 +69,15 @@ import numpy.typing as npt
 
 from .constraints import short_rotation_single
 from .fepf import FepfPlanner, PlannerOutput
-from .mrp import Vec3Like, angle_between_single, mrp_rate_single, omega_from_mrp_rate_single
+from .mrp import (
+    Vec3Like,
+    angle_between_single,
+    compose,
+    dcm_rows_from_mrp,
+    mrp_rate_single,
+    omega_from_mrp_rate_single,
+    relative,
+)
 from .route import Route, RoutePlanner
 from .status import PlannerStatus
 
@@ -106,6 +114,8 @@ RATE_USE = 0.95
 
 BRAKE_USE = 1.0
 """Fraction of the angle to the closest buffered rim that the braking curve may use."""
+
+_CARROTS = (0.75, 0.5, 0.25)  # points of the leg (share of its rotation) to aim back at
 
 MIN_SLACK_DEG = 0.05
 """Smallest swing and capture angle at a waypoint (a route that keeps only the buffer)."""
@@ -272,6 +282,7 @@ class Guidance:
         self._leg = 0
         self._after_leg: list[float] = [0.0]  # route rotation left after each waypoint, rad
         self._turn: list[float] = [0.0]  # turn at each waypoint, rad
+        self._legs: list[tuple[npt.NDArray[np.float64], float]] = []
         self._swing_deg = MIN_SLACK_DEG  # allowed swing off the route at a turn, and capture
         if routes is not None:
             first = (
@@ -336,6 +347,12 @@ class Guidance:
         wp = route.waypoints
         legs = [angle_between_single(wp[i], wp[i + 1]) for i in range(len(wp) - 1)]
         self._after_leg = [sum(legs[i:]) for i in range(len(legs))] + [0.0]
+        # Each leg as (unit eigenaxis in the leg's start frame, angle): points along it.
+        self._legs = []
+        for k in range(len(wp) - 1):
+            rel = relative(wp[k + 1], wp[k])
+            size = float(np.linalg.norm(rel))
+            self._legs.append((rel / size if size > 0.0 else rel, legs[k]))
         # Turn at each inner waypoint: the angle between the inertial eigenaxes of the
         # rotations in and out of it (the directions of the body rate).
         self._turn = [0.0] * len(wp)
@@ -373,6 +390,31 @@ class Guidance:
             ):
                 break
             self._set_leg(self._leg + 1)
+        self._aim_in_sight()
+
+    def _aim_in_sight(self) -> None:
+        """Keep the FEPF's goal in sight: when the target has swung off the leg so that
+        the rotation to the current waypoint no longer keeps the buffer, aim at the
+        farthest of a few points of the leg that is in sight (back on the route) instead;
+        with none in sight the waypoint stays the goal and the FEPF steers round."""
+        assert self.route is not None
+        planner = self.planner
+        leg = self._leg
+        wp = self.route.waypoints
+        here = planner.sigma_t
+        need = planner.sight_margin_deg()
+        geometry = planner.geometry
+        if geometry.arc_min_margin_deg_single(here, wp[leg]) >= need:
+            if planner.goal != tuple(float(x) for x in wp[leg]):
+                self._set_leg(leg)
+            return
+        rel, theta = self._legs[leg - 1]
+        for f in _CARROTS:
+            point = compose(math.tan(0.25 * f * theta) * rel, wp[leg - 1])
+            if geometry.arc_min_margin_deg_single(here, point) >= need:
+                beyond = (1.0 - f) * theta + self._after_leg[leg]
+                planner.set_goal(point, final=False, beyond_mrp=0.25 * beyond)
+                return
 
     @property
     def route_rotation_deg(self) -> float:
@@ -386,6 +428,17 @@ class Guidance:
             return angle_between_single(sigma_t, self.goal)
         leg = self._leg
         return angle_between_single(sigma_t, self.route.waypoints[leg]) + self._after_leg[leg]
+
+    def _to_rim(self, sigma_t: Vec3Like, omega_t: npt.NDArray[np.float64], rim_deg: float) -> float:
+        """Rotation (rad) about the rate ``omega_t`` (target axes) until a constraint's
+        margin falls to ``rim_deg`` (:meth:`ConeGeometry.rotation_to_rim_deg`)."""
+        size = math.hypot(float(omega_t[0]), float(omega_t[1]), float(omega_t[2]))
+        if size == 0.0:
+            return math.inf
+        r0, r1, r2 = dcm_rows_from_mrp(sigma_t)  # C_TN: inertial axis = C_TN^T omega_hat
+        w = [float(x) / size for x in omega_t]
+        axis = tuple(w[0] * r0[i] + w[1] * r1[i] + w[2] * r2[i] for i in range(3))
+        return math.radians(self.planner.geometry.rotation_to_rim_deg(sigma_t, axis, rim_deg))
 
     def _corner_cap(self, sigma_t: Vec3Like, alpha: float, dt: float) -> float:
         """The braking curves to the turns at the waypoints ahead (:func:`corner_speed`)."""
@@ -423,7 +476,9 @@ class Guidance:
             # The route starts where the target was when it was asked for; the target has
             # not moved much since (it stalled): aim at the route's next waypoint.
             self._take_route(route)
+            # Progress is measured along the new route from here on (it may be longer).
             self._since_progress = 0.0
+            self._best_body = self._best_target = math.inf
 
     def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
         """The target for the measured state at time ``t_s`` (s, non-decreasing)."""
@@ -481,18 +536,27 @@ class Guidance:
         if alpha is not None:
             sigma_t = out.sigma_t
             theta = self.remaining_rad(sigma_t)
-            if not self.planner.goal_in_sight:
-                # Rotation to the buffered rim: a rotation by theta moves a boresight by at
-                # most theta, so the exact margin less the buffer bounds it from below.
-                geometry = self.planner.geometry
-                margin = geometry.min_margin_deg_single(sigma_t)
-                theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
-                theta = min(theta, BRAKE_USE * theta_obs)
+            # Rotation to the buffered rim: a rotation by theta moves a boresight by at
+            # most theta, so the exact margin less the buffer bounds it from below.
+            geometry = self.planner.geometry
+            margin = geometry.min_margin_deg_single(sigma_t)
+            theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
+            if self.follow_route:
+                # On a route, the rotation to the rim along the way the target turns (its
+                # rate now and the rate asked for): alongside a cone, no braking. The rim
+                # is the buffer's, or RIM_FLOOR of it for a target already at the rim.
+                rim = self.planner.sight_margin_deg()
+                ahead = min(
+                    self._to_rim(sigma_t, self.omega_prev, rim), self._to_rim(sigma_t, omega, rim)
+                )
+                theta_obs = max(math.radians(max(margin - rim, 0.0)), ahead)
+            theta = min(theta, BRAKE_USE * theta_obs)
             cap = min(cap, _braking_speed(alpha, theta, dt), self._corner_cap(sigma_t, alpha, dt))
         wanted = cap
-        if alpha is not None and speed > 0.0:
-            # Turn before speeding up: the speed aimed at while the rate vector turns to the
-            # new direction keeps the swing of the turn small (a soft cap, reached at alpha).
+        if alpha is not None and speed > 0.0 and self.follow_route:
+            # Turn before speeding up (on a route): the speed aimed at while the rate vector
+            # turns to the new direction keeps the swing of the turn within the route's
+            # slack (a soft cap, reached at alpha).
             prev = math.hypot(*self.omega_prev)
             want = self.planner.wanted_omega
             size = math.hypot(*want)
@@ -563,7 +627,7 @@ class Guidance:
             self._since_progress = 0.0
             return
         self._since_progress += dt
-        if self._since_progress >= 0.5 * self.stuck_timeout_s:
+        if self._since_progress >= 0.5 * planner.cfg.stuck_timeout_s:
             self._replan()
         if self._since_progress >= self.stuck_timeout_s:
             self.status = PlannerStatus.STUCK

@@ -51,6 +51,7 @@ __all__ = [
     "NEIGHBOURS",
     "EXTRA_CLEARANCE_DEG",
     "FINE_FACTOR",
+    "RIM_FLOOR",
     "Roadmap",
     "Route",
     "RoutePlanner",
@@ -68,7 +69,11 @@ EXTRA_CLEARANCE_DEG = 1.0
 """Clearance beyond the planner's buffer that a route keeps when it can."""
 FINE_FACTOR = 4
 """Density of the roadmap searched before a slew is declared infeasible."""
+RIM_FLOOR = 0.75
+"""Share of the buffer a rotation may keep when it leaves an attitude already at (or
+inside) the buffer's rim: a stalled target planned from again, or a restart."""
 _END_LINKS = 3 * NEIGHBOURS
+_START_TOL_DEG = 1e-6  # a rotation leaving an attitude starts at that attitude's margin
 _PULL_START_DEG = 4.0
 _PULL_MIN_DEG = 0.05  # roadmap nodes the start and the goal are joined to
 
@@ -340,7 +345,14 @@ class RoutePlanner:
             r_end = Rotation.concatenate([ends[end]] * len(near))
             axes, angles = _eigen_rotations(r_end, rm.rotations[near])
             arcs = self._arc_margins(r_end, axes, angles).min(axis=1)
-            ok = arcs > min(level, end_margins[end])
+            # An end closer to a cone than the clearance (a stalled target, planned from
+            # again) leaves it on rotations that keep RIM_FLOOR of the buffer, or its own
+            # margin if lower.
+            floor = level
+            if end_margins[end] <= level:
+                rim = RIM_FLOOR * math.radians(self.buffer_deg)
+                floor = min(rim, float(end_margins[end])) - math.radians(_START_TOL_DEG)
+            ok = arcs > floor
             extra_u.append(np.full(int(ok.sum()), n + end))
             extra_v.append(near[ok])
             extra_w.append(angles[ok])

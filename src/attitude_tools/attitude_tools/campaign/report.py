@@ -51,11 +51,12 @@ def _png(fig) -> str:
 
 
 def _histograms(frame: pd.DataFrame) -> str:
-    fig, axes = plt.subplots(1, 3, figsize=(13.5, 3.8))
+    fig, axes = plt.subplots(1, 4, figsize=(18.0, 3.8))
     panels = (
         ("min_margin_deg", "min body constraint margin (deg), all runs", False),
         ("t_reach_s", "arrival time (s), reached runs", True),
         ("rotation_ratio", "rotation flown / eigenaxis angle, reached runs", True),
+        ("rotation_to_route", "rotation flown / global route's rotation, reached runs", True),
     )
     for ax, (column, title, reached_only) in zip(axes, panels, strict=True):
         for k, (variant, group) in enumerate(frame.groupby("variant", sort=False)):

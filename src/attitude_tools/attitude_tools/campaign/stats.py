@@ -42,7 +42,8 @@ def _percentiles(values: pd.Series) -> dict[str, float | int | None]:
 
 def summarize_campaign(frame: pd.DataFrame) -> dict[str, Any]:
     """Per variant: outcome counts and rates with 95 % Wilson intervals; percentiles of
-    ``t_reach_s`` and ``rotation_ratio`` (reached runs) and ``min_margin_deg`` (all)."""
+    ``t_reach_s``, ``rotation_ratio``, ``rotation_to_route`` and
+    ``t_reach_x_peak_rate_rad`` (reached runs) and ``min_margin_deg`` (all)."""
     variants: dict[str, Any] = {}
     for variant, group in frame.groupby("variant", sort=False):
         n = len(group)
@@ -58,6 +59,8 @@ def summarize_campaign(frame: pd.DataFrame) -> dict[str, Any]:
             "outcomes": outcomes,
             "t_reach_s": _percentiles(reached["t_reach_s"]),
             "rotation_ratio": _percentiles(reached["rotation_ratio"]),
+            "rotation_to_route": _percentiles(reached["rotation_to_route"]),
+            "t_reach_x_peak_rate_rad": _percentiles(reached["t_reach_x_peak_rate_rad"]),
             "min_margin_deg": _percentiles(group["min_margin_deg"]),
         }
     return {"variants": variants}

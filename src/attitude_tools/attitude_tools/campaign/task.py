@@ -44,6 +44,10 @@ def outcome_of(summary: dict[str, Any], statuses: np.ndarray) -> str:
     return "not_reached"
 
 
+def _or_nan(value: float | None) -> float:
+    return math.nan if value is None else float(value)
+
+
 def reproducer(spec: CampaignSpec, i: int, variant: str) -> str:
     """A complete scenario file that reproduces run ``i`` with ``variant``."""
     draw = draw_run(spec, base_parameters(spec), i, variant)
@@ -87,6 +91,15 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "min_margin_deg": summary["min_margin_deg"],
         "rotation_deg": rotation,
         "rotation_ratio": rotation / eigen_deg if eigen_deg > 1e-9 else math.nan,
+        "route_rotation_deg": _or_nan(summary["route_rotation_deg"]),
+        "rotation_to_route": (
+            rotation / summary["route_rotation_deg"]
+            if summary["route_rotation_deg"] and summary["reached"]
+            else math.nan
+        ),
+        "t_reach_x_peak_rate_rad": (
+            summary["t_reach_s"] * summary["peak_rate_rad_s"] if summary["reached"] else math.nan
+        ),
         "time_ratio_to_bound": (
             math.nan if summary["time_ratio_to_bound"] is None else summary["time_ratio_to_bound"]
         ),
