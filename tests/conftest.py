@@ -58,6 +58,36 @@ def start_bridge(
         )  # fmt: skip
 
 
+def run_env(domain: int) -> dict[str, str]:
+    """The caller's environment on ROS domain ``domain``, discovery on this host only, for
+    ``attitude-run`` (which finds the workspace itself)."""
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(domain)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
+    return env
+
+
+def attitude_run(
+    scenario: Path | str, out: Path | str, domain: int, *extra: str, timeout: float = 180
+) -> subprocess.CompletedProcess[str]:
+    """``attitude-run SCENARIO --out OUT --quiet EXTRA...`` on ROS domain ``domain``."""
+    return subprocess.run(
+        [
+            str(Path(sys.prefix) / "bin" / "attitude-run"),
+            str(scenario),
+            "--out",
+            str(out),
+            "--quiet",
+            *extra,
+        ],  # fmt: skip
+        env=run_env(domain),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
 def run_with_bridge(
     scenario: Path,
     out: Path,

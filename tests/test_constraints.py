@@ -108,7 +108,18 @@ def _free_points(g, n, rng, lo=0.0, hi=1.0):
     return out
 
 
-@pytest.mark.parametrize("spec,seed", [(PAPER, 3), (TWO_INSTRUMENTS, 4)])
+# The inflated rim (20 + 2 deg about the object) passes exactly through the boresight's
+# own direction, +x: one rim fibre holds the identity and is a line in MRP space.
+RIM_THROUGH_BORESIGHT = dict(
+    boresights_body=[[1.0, 0.0, 0.0]],
+    half_angles_deg=[20.0],
+    directions_inertial=[[np.cos(np.radians(22.0)), np.sin(np.radians(22.0)), 0.0]],
+)
+
+
+@pytest.mark.parametrize(
+    "spec,seed", [(PAPER, 3), (TWO_INSTRUMENTS, 4), (RIM_THROUGH_BORESIGHT, 5)]
+)
 def test_obstacle_distance_matches_brute_force(spec, seed):
     g = ConeGeometry(**spec, inflation_deg=2.0)
     rng = np.random.default_rng(seed)

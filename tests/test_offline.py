@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from attitude_core.closed_loop import run_closed_loop
+from attitude_core.status import PlannerStatus
 from attitude_core.trajectory import summarize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -120,3 +121,31 @@ def test_cli_bad_scenario_exits_nonzero_and_writes_nothing(tmp_path):
     assert proc.returncode == 2
     assert "bad.yaml" in proc.stderr
     assert not out.exists()
+
+
+def test_cli_infeasible_slew_exits_1_and_says_which_cones_enclose_the_goal(tmp_path):
+    out = tmp_path / "run"
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "attitude_tools.offline",
+            f"{ROOT}/scenarios/enclosed_goal.yaml",
+            "--out",
+            str(out),
+            "--quiet",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert proc.returncode == 1, proc.stderr
+    assert "infeasible" in proc.stderr and "goal is enclosed by" in proc.stderr
+    for k in range(1, 5):
+        assert f"star_tracker/object_{k}" in proc.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["planner_infeasible"] and not summary["reached"]
+    assert summary["infeasible_reason"] in proc.stderr
+    table = np.genfromtxt(out / "timeseries.csv", delimiter=",", names=True)
+    infeasible = PlannerStatus.INFEASIBLE.code
+    assert (table["planner_status"] == infeasible).all()  # from the first step

@@ -5,7 +5,6 @@ with ``ros2 run``) on its own reserved ``ROS_DOMAIN_ID`` (conftest.py) with
 localhost-only discovery, then checks the run from the recorded bag alone.
 """
 
-import os
 import signal
 import subprocess
 import sys
@@ -14,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import needs_workspace
+from conftest import attitude_run, needs_workspace, run_env
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.control import PdGains, pd_torque
@@ -35,24 +34,6 @@ pytestmark = [
     pytest.mark.ros,
     needs_workspace,
 ]
-
-
-def ros_env(domain: int) -> dict:
-    env = dict(os.environ)
-    env["ROS_DOMAIN_ID"] = str(domain)
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
-    return env
-
-
-def attitude_run(scenario, out, domain: int, *extra, timeout=180):
-    return subprocess.run(
-        [str(BIN / "attitude-run"), str(scenario), "--out", str(out), "--quiet", *extra],
-        env=ros_env(domain),
-        capture_output=True,
-        text=True,
-        timeout=timeout,
-    )
 
 
 def short_scenario(tmp_path, sim_time_s: float, name="case1") -> Path:
@@ -296,7 +277,7 @@ def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domai
             "realtime",
             "--quiet",
         ],
-        env=ros_env(ros_domain),
+        env=run_env(ros_domain),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -15,9 +15,9 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation, Slerp
 
+from attitude_core import guidance as guidance_module
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.constraints import ConeGeometry, short_rotation_single
-from attitude_core import guidance as guidance_module
 from attitude_core.guidance import ROUTE_LATENCY_S, Guidance
 from attitude_core.mrp import angle_between_single, principal_angle, relative
 from attitude_core.route import RoutePlanner, roadmap, super_fibonacci_quaternions

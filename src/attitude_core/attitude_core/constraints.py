@@ -42,7 +42,14 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
-from .mrp import Vec3, Vec3Like, dcm_from_mrp, dcm_rows_from_mrp, quat_mul_sf
+from .mrp import (
+    Vec3,
+    Vec3Like,
+    dcm_from_mrp,
+    dcm_rows_from_mrp,
+    quat_mul_sf,
+    relative_euler_single,
+)
 
 __all__ = [
     "ConeGeometry",
@@ -120,18 +127,7 @@ def short_rotation_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> tuple[Vec3, f
     from attitude ``sigma_a`` to ``sigma_b`` (both ``sigma_BN``): a body vector's inertial
     direction at ``b`` is the one at ``a`` turned actively by the angle about the axis.
     The axis is ``(0, 0, 0)`` for equal attitudes."""
-    a1, a2, a3 = float(sigma_a[0]), float(sigma_a[1]), float(sigma_a[2])
-    b1, b2, b3 = float(sigma_b[0]), float(sigma_b[1]), float(sigma_b[2])
-    sa = a1 * a1 + a2 * a2 + a3 * a3
-    sb = b1 * b1 + b2 * b2 + b3 * b3
-    # Unscaled Euler parameters (1 - s.s, 2 s) of each; q_B/A = q_B (x) q_A^* (passive).
-    a0, b0 = 1.0 - sa, 1.0 - sb
-    x1, x2, x3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
-    y1, y2, y3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
-    w = a0 * b0 + x1 * y1 + x2 * y2 + x3 * y3
-    v1 = a0 * y1 - b0 * x1 - (x2 * y3 - x3 * y2)
-    v2 = a0 * y2 - b0 * x2 - (x3 * y1 - x1 * y3)
-    v3 = a0 * y3 - b0 * x3 - (x1 * y2 - x2 * y1)
+    w, v1, v2, v3 = relative_euler_single(sigma_b, sigma_a)  # q_B/A, unnormalised
     if w < 0.0:
         w, v1, v2, v3 = -w, -v1, -v2, -v3
     n = math.sqrt(v1 * v1 + v2 * v2 + v3 * v3)
@@ -312,6 +308,25 @@ class ConeGeometry:
                 best = m
         return best
 
+    def _inertial_vectors(
+        self, sigma_bn: Vec3Like
+    ) -> tuple[list[tuple[Vec3, float]], list[tuple[Vec3, Vec3, float]]]:
+        """At ``sigma_bn``: each boresight in inertial axes with its half-angle (deg), and
+        each keep-in axis in inertial axes with its direction and angle (deg)."""
+        r0, r1, r2 = dcm_rows_from_mrp(sigma_bn)
+
+        def inertial(a: float, b: float, c: float) -> Vec3:
+            return (
+                a * r0[0] + b * r1[0] + c * r2[0],
+                a * r0[1] + b * r1[1] + c * r2[1],
+                a * r0[2] + b * r1[2] + c * r2[2],
+            )
+
+        return (
+            [(inertial(*s), beta) for s, beta in self._instruments_py],
+            [(inertial(*a), d, gamma) for a, d, gamma in self._keep_in_py],
+        )
+
     def arc_min_margin_deg_single(self, sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
         """Smallest exact margin over every constraint along the short eigenaxis rotation
         from ``sigma_a`` to ``sigma_b`` (all of it, closed form), degrees."""
@@ -319,7 +334,6 @@ class ConeGeometry:
         if angle == 0.0:
             return self.min_margin_deg_single(sigma_a)
         cos_t, sin_t = math.cos(angle), math.sin(angle)
-        r0, r1, r2 = dcm_rows_from_mrp(sigma_a)
         best = math.inf
 
         def extremes(vx: float, vy: float, vz: float, x: float, y: float, z: float) -> Vec3:
@@ -335,23 +349,14 @@ class ConeGeometry:
             lo = a - r if (phi + math.pi) % _TWO_PI <= angle else min(start, end)
             return start, hi, lo
 
-        for (a, b, c), beta in self._instruments_py:
-            vx = a * r0[0] + b * r1[0] + c * r2[0]
-            vy = a * r0[1] + b * r1[1] + c * r2[1]
-            vz = a * r0[2] + b * r1[2] + c * r2[2]
+        boresights, keep_in = self._inertial_vectors(sigma_a)
+        for (vx, vy, vz), beta in boresights:
             for x, y, z in self._objects_py:
                 hi = extremes(vx, vy, vz, x, y, z)[1]
-                m = math.degrees(math.acos(min(max(hi, -1.0), 1.0))) - beta
-                if m < best:
-                    best = m
-        for (a, b, c), (x, y, z), gamma in self._keep_in_py:
-            vx = a * r0[0] + b * r1[0] + c * r2[0]
-            vy = a * r0[1] + b * r1[1] + c * r2[1]
-            vz = a * r0[2] + b * r1[2] + c * r2[2]
+                best = min(best, math.degrees(math.acos(min(max(hi, -1.0), 1.0))) - beta)
+        for (vx, vy, vz), (x, y, z), gamma in keep_in:
             lo = extremes(vx, vy, vz, x, y, z)[2]
-            m = gamma - math.degrees(math.acos(min(max(lo, -1.0), 1.0)))
-            if m < best:
-                best = m
+            best = min(best, gamma - math.degrees(math.acos(min(max(lo, -1.0), 1.0))))
         return best
 
     def rotation_to_rim_deg(
@@ -363,7 +368,6 @@ class ConeGeometry:
         there in a whole turn. Closed form: each margin's cosine along the turn is
         ``A + R cos(phi - phi*)`` (see :func:`arc_cos_extremes`)."""
         e1, e2, e3 = float(axis_inertial[0]), float(axis_inertial[1]), float(axis_inertial[2])
-        r0, r1, r2 = dcm_rows_from_mrp(sigma_bn)
         rim = math.radians(rim_deg)
         best = math.inf
 
@@ -387,17 +391,12 @@ class ConeGeometry:
             phi = phi_star + half if keep_in else phi_star - half
             return phi % _TWO_PI
 
-        for (a, b, c), beta in self._instruments_py:
-            vx = a * r0[0] + b * r1[0] + c * r2[0]
-            vy = a * r0[1] + b * r1[1] + c * r2[1]
-            vz = a * r0[2] + b * r1[2] + c * r2[2]
+        boresights, keep_in = self._inertial_vectors(sigma_bn)
+        for (vx, vy, vz), beta in boresights:
             bound = math.radians(beta) + rim
             for x, y, z in self._objects_py:
                 best = min(best, entry(vx, vy, vz, x, y, z, bound, False))
-        for (a, b, c), (x, y, z), gamma in self._keep_in_py:
-            vx = a * r0[0] + b * r1[0] + c * r2[0]
-            vy = a * r0[1] + b * r1[1] + c * r2[1]
-            vz = a * r0[2] + b * r1[2] + c * r2[2]
+        for (vx, vy, vz), (x, y, z), gamma in keep_in:
             best = min(best, entry(vx, vy, vz, x, y, z, math.radians(gamma) - rim, True))
         return math.degrees(best)
 
@@ -425,10 +424,12 @@ class ConeGeometry:
         for s, c, beta in cones:
             e1 = _unit_perpendicular(c)
             e2 = np.cross(c, e1)
-            # Body-vector directions on the cone rim, inertial axes: (k, 3)
-            b = np.cos(beta) * c[None, :] + np.sin(beta) * (
-                np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
-            )
+            # Body-vector directions on the cone rim, inertial axes: (k, 3). A rim sample
+            # on the body vector itself has the identity on its fibre, which the MRP map
+            # sends to a line (a circle of infinite radius): sample half a step over.
+            b = self._rim(c, e1, e2, beta, phi)
+            if np.max(b @ s) > 1.0 - 1e-9:
+                b = self._rim(c, e1, e2, beta, phi + np.pi / k)
             cc, nn, rr = _fiber_circles(s, b)
             centres.append(cc)
             normals.append(nn)
@@ -446,6 +447,13 @@ class ConeGeometry:
         self._circles_py = list(
             zip(self._centres.tolist(), self._normals.tolist(), self._radii.tolist(), strict=True)
         )
+
+    @staticmethod
+    def _rim(c: _Floats, e1: _Floats, e2: _Floats, beta: float, phi: _Floats) -> _Floats:
+        rim: _Floats = np.cos(beta) * c[None, :] + np.sin(beta) * (
+            np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2
+        )
+        return rim
 
     def rim_distances_sq(self, sigma: Vec3Like) -> _Floats:
         """Squared distance from ``sigma`` to every precomputed rim circle, ``(P*k,)``."""

@@ -37,6 +37,7 @@ __all__ = [
     "relative",
     "angle_between_single",
     "relative_single",
+    "relative_euler_single",
     "quat_from_mrp",
     "mrp_from_quat",
     "principal_angle",
@@ -177,6 +178,24 @@ def omega_from_mrp_rate_single(sigma: Vec3Like, sigma_dot: Vec3Like) -> _Floats:
     )
 
 
+def relative_euler_single(sigma_bn: Vec3Like, sigma_rn: Vec3Like) -> tuple[float, ...]:
+    """Euler parameters ``(w, v1, v2, v3)`` of ``q_B/R = q_B (x) q_R^*`` (passive),
+    unnormalised: computed from ``(1 - s.s, 2 s)`` of each MRP, so their norm is
+    ``(1 + |sigma_bn|^2)(1 + |sigma_rn|^2)`` (plain floats, the hot paths' common core)."""
+    r1, r2, r3 = float(sigma_rn[0]), float(sigma_rn[1]), float(sigma_rn[2])
+    b1, b2, b3 = float(sigma_bn[0]), float(sigma_bn[1]), float(sigma_bn[2])
+    r0 = 1.0 - (r1 * r1 + r2 * r2 + r3 * r3)
+    b0 = 1.0 - (b1 * b1 + b2 * b2 + b3 * b3)
+    r1, r2, r3 = 2.0 * r1, 2.0 * r2, 2.0 * r3
+    b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
+    return (
+        r0 * b0 + r1 * b1 + r2 * b2 + r3 * b3,
+        r0 * b1 - b0 * r1 - (r2 * b3 - r3 * b2),
+        r0 * b2 - b0 * r2 - (r3 * b1 - r1 * b3),
+        r0 * b3 - b0 * r3 - (r1 * b2 - r2 * b1),
+    )
+
+
 def angle_between_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
     """Principal angle (rad, ``[0, pi]``) of the rotation between two attitudes, in plain
     floats (hot path; equals ``principal_angle(relative(sigma_a, sigma_b))``).
@@ -202,19 +221,12 @@ def angle_between_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
 
 def relative_single(sigma_bn: Vec3Like, sigma_rn: Vec3Like) -> Vec3:
     """``sigma_B/R`` (short way, ``|sigma| <= 1``) in plain floats: the hot-path form of
-    :func:`relative`, through unscaled Euler parameters ``(1 - s.s, 2 s)``."""
-    r1, r2, r3 = float(sigma_rn[0]), float(sigma_rn[1]), float(sigma_rn[2])
+    :func:`relative`, through :func:`relative_euler_single`."""
+    w, v1, v2, v3 = relative_euler_single(sigma_bn, sigma_rn)
     b1, b2, b3 = float(sigma_bn[0]), float(sigma_bn[1]), float(sigma_bn[2])
-    sr = r1 * r1 + r2 * r2 + r3 * r3
+    r1, r2, r3 = float(sigma_rn[0]), float(sigma_rn[1]), float(sigma_rn[2])
     sb = b1 * b1 + b2 * b2 + b3 * b3
-    r0, b0 = 1.0 - sr, 1.0 - sb
-    r1, r2, r3 = 2.0 * r1, 2.0 * r2, 2.0 * r3
-    b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
-    # q_B/R = q_B (x) q_R^* (passive), scaled by (1 + sb)(1 + sr).
-    w = r0 * b0 + r1 * b1 + r2 * b2 + r3 * b3
-    v1 = r0 * b1 - b0 * r1 - (r2 * b3 - r3 * b2)
-    v2 = r0 * b2 - b0 * r2 - (r3 * b1 - r1 * b3)
-    v3 = r0 * b3 - b0 * r3 - (r1 * b2 - r2 * b1)
+    sr = r1 * r1 + r2 * r2 + r3 * r3
     norm = (1.0 + sb) * (1.0 + sr)
     k = 1.0 / (norm + w) if w >= 0.0 else -1.0 / (norm - w)
     return (v1 * k, v2 * k, v3 * k)

@@ -53,8 +53,9 @@ class PlannerStatus(enum.StrEnum):
     """Neither the target nor the body has come closer to the goal for
     ``planner.stuck_timeout_s`` (longer with actuator limits); the target is held."""
     INFEASIBLE = ("infeasible", 3, DiagnosticLevel.ERROR, True)
-    """The goal cannot be reached. Reserved for a feasibility check; the FEPF alone
-    never reports it."""
+    """No route reaches the goal at the planner's resolution (:mod:`attitude_core.route`),
+    decided before the first step; the target holds the start and the guidance's
+    ``reason`` names the constraints that enclose the start or the goal."""
 
     @classmethod
     def parse(cls, text: str) -> PlannerStatus:
