@@ -21,6 +21,7 @@ from attitude_core.constraints import ConeGeometry, short_rotation_single
 from attitude_core.guidance import ROUTE_LATENCY_S, Guidance
 from attitude_core.mrp import angle_between_single, principal_angle, relative
 from attitude_core.route import RoutePlanner, roadmap, super_fibonacci_quaternions
+from attitude_core.route_following import corner_speed
 from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.trajectory import summarize
@@ -269,3 +270,24 @@ def test_threaded_replan_flies_the_same_targets_as_the_immediate_one():
             Guidance.from_scenario(sc, executor=pool, initial_route=straight), sc, 1500
         )
     np.testing.assert_array_equal(immediate, threaded)
+
+
+@pytest.mark.parametrize("turn_deg", [10.0, 45.0, 90.0, 150.0])
+def test_corner_speed_keeps_the_swing_of_a_turn(turn_deg):
+    """A point arriving at a corner at corner_speed, its velocity turned to the outgoing
+    leg by at most alpha dt per step, stays within the allowed swing of that leg."""
+    alpha, swing, dt = 1e-3, math.radians(0.5), 0.01
+    turn = math.radians(turn_deg)
+    v = corner_speed(alpha, turn, swing)
+    d_out = np.array([math.cos(turn), math.sin(turn)])
+    normal = np.array([-d_out[1], d_out[0]])
+    p, vel = np.zeros(2), np.array([v, 0.0])
+    worst = 0.0
+    for _ in range(int(4.0 * v / alpha / dt) + 10):
+        change = v * d_out - vel
+        size = np.linalg.norm(change)
+        vel = vel + (change if size <= alpha * dt else change * (alpha * dt / size))
+        p = p + vel * dt
+        worst = max(worst, abs(float(p @ normal)))
+    assert worst <= swing * (1.0 + 1e-2)
+    assert worst >= 0.5 * swing * math.cos(turn / 2.0)  # not needlessly slow either

@@ -67,18 +67,16 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from .constraints import short_rotation_single
 from .fepf import FepfPlanner, PlannerOutput
 from .mrp import (
     Vec3Like,
     angle_between_single,
-    compose,
     dcm_rows_from_mrp,
     mrp_rate_single,
     omega_from_mrp_rate_single,
-    relative,
 )
 from .route import Route, RoutePlanner
+from .route_following import RouteFollower, braking_speed, corner_speed
 from .status import PlannerStatus
 
 if TYPE_CHECKING:
@@ -89,10 +87,8 @@ __all__ = [
     "GYRO_SHARE",
     "RATE_USE",
     "BRAKE_USE",
-    "MIN_SLACK_DEG",
     "ROUTE_REPLANS",
     "ROUTE_LATENCY_S",
-    "corner_speed",
     "Executor",
     "ImmediateExecutor",
     "GuidanceLimits",
@@ -114,11 +110,6 @@ RATE_USE = 0.95
 
 BRAKE_USE = 1.0
 """Fraction of the angle to the closest buffered rim that the braking curve may use."""
-
-_CARROTS = (0.75, 0.5, 0.25)  # points of the leg (share of its rotation) to aim back at
-
-MIN_SLACK_DEG = 0.05
-"""Smallest swing and capture angle at a waypoint (a route that keeps only the buffer)."""
 
 
 ROUTE_REPLANS = 2
@@ -210,26 +201,6 @@ def time_bound_s(
     return theta / max_rate_rad_s + max_rate_rad_s / alpha_max_rad_s2
 
 
-def _braking_speed(alpha: float, theta: float, dt: float, end_speed: float = 0.0) -> float:
-    """The largest speed from which steps of ``dt`` decelerating at ``alpha`` are down
-    to ``end_speed`` within ``theta``:
-    ``sqrt(end^2 + 2 alpha theta + (alpha dt / 2)^2) - alpha dt / 2`` (the sampled form
-    of ``sqrt(end^2 + 2 alpha theta)``)."""
-    half = 0.5 * alpha * dt
-    return math.sqrt(end_speed * end_speed + 2.0 * alpha * theta + half * half) - half
-
-
-def corner_speed(alpha: float, turn_rad: float, swing_rad: float) -> float:
-    """The speed at which a target turning by ``turn_rad`` at a waypoint, with its rate
-    vector changing by at most ``alpha``, swings at most ``swing_rad`` off the route:
-    ``sqrt(alpha swing / (1 - cos(turn)))`` (the swing of a turn of radius
-    ``v^2 / alpha``)."""
-    bend = 1.0 - math.cos(min(turn_rad, math.pi))
-    if bend < 1e-12:
-        return math.inf
-    return math.sqrt(alpha * swing_rad / bend)
-
-
 @dataclass(slots=True)
 class GuidanceOutput:
     """The target of one state and what the guidance knows about the tracking."""
@@ -279,11 +250,7 @@ class Guidance:
         self._pending: Future[Route] | None = None
         self._pending_at = math.inf  # state time at which the pending route is taken
         self._first_route_deg = math.nan
-        self._leg = 0
-        self._after_leg: list[float] = [0.0]  # route rotation left after each waypoint, rad
-        self._turn: list[float] = [0.0]  # turn at each waypoint, rad
-        self._legs: list[tuple[npt.NDArray[np.float64], float]] = []
-        self._swing_deg = MIN_SLACK_DEG  # allowed swing off the route at a turn, and capture
+        self.follower: RouteFollower | None = None  # the route being flown
         if routes is not None:
             first = (
                 initial_route
@@ -342,79 +309,8 @@ class Guidance:
         self.route = route
         if math.isnan(self._first_route_deg):
             self._first_route_deg = math.degrees(route.rotation_rad)
-        if not self.follow_route:
-            return
-        wp = route.waypoints
-        legs = [angle_between_single(wp[i], wp[i + 1]) for i in range(len(wp) - 1)]
-        self._after_leg = [sum(legs[i:]) for i in range(len(legs))] + [0.0]
-        # Each leg as (unit eigenaxis in the leg's start frame, angle): points along it.
-        self._legs = []
-        for k in range(len(wp) - 1):
-            rel = relative(wp[k + 1], wp[k])
-            size = float(np.linalg.norm(rel))
-            self._legs.append((rel / size if size > 0.0 else rel, legs[k]))
-        # Turn at each inner waypoint: the angle between the inertial eigenaxes of the
-        # rotations in and out of it (the directions of the body rate).
-        self._turn = [0.0] * len(wp)
-        for k in range(1, len(wp) - 1):
-            e_in, _ = short_rotation_single(wp[k - 1], wp[k])
-            e_out, _ = short_rotation_single(wp[k], wp[k + 1])
-            cos_turn = sum(a * b for a, b in zip(e_in, e_out, strict=True))
-            self._turn[k] = math.acos(min(max(cos_turn, -1.0), 1.0))
-        slack = max(route.clearance_deg - self.planner.geometry.inflation_deg, 0.0)
-        self._swing_deg = max(0.5 * slack, MIN_SLACK_DEG)
-        self._leg = 0
-        self._set_leg(1)
-
-    def _set_leg(self, leg: int) -> None:
-        wp = self.route.waypoints if self.route is not None else ()
-        self._leg = leg
-        # The FIS goal distance runs along the rest of the route (tan(theta / 4) ~ theta / 4).
-        self.planner.set_goal(
-            wp[leg], final=leg == len(wp) - 1, beyond_mrp=0.25 * self._after_leg[leg]
-        )
-
-    def _next_waypoint(self) -> None:
-        """Pass waypoints: the next one is in sight, or the current one is reached."""
-        if self.route is None or not self.follow_route:
-            return
-        planner = self.planner
-        wp = self.route.waypoints
-        last = len(wp) - 1
-        clearance = self.route.clearance_deg
-        while self._leg < last:
-            here = planner.sigma_t
-            near = math.degrees(angle_between_single(here, wp[self._leg])) <= self._swing_deg
-            if not near and (
-                planner.geometry.arc_min_margin_deg_single(here, wp[self._leg + 1]) < clearance
-            ):
-                break
-            self._set_leg(self._leg + 1)
-        self._aim_in_sight()
-
-    def _aim_in_sight(self) -> None:
-        """Keep the FEPF's goal in sight: when the target has swung off the leg so that
-        the rotation to the current waypoint no longer keeps the buffer, aim at the
-        farthest of a few points of the leg that is in sight (back on the route) instead;
-        with none in sight the waypoint stays the goal and the FEPF steers round."""
-        assert self.route is not None
-        planner = self.planner
-        leg = self._leg
-        wp = self.route.waypoints
-        here = planner.sigma_t
-        need = planner.sight_margin_deg()
-        geometry = planner.geometry
-        if geometry.arc_min_margin_deg_single(here, wp[leg]) >= need:
-            if planner.goal != tuple(float(x) for x in wp[leg]):
-                self._set_leg(leg)
-            return
-        rel, theta = self._legs[leg - 1]
-        for f in _CARROTS:
-            point = compose(math.tan(0.25 * f * theta) * rel, wp[leg - 1])
-            if geometry.arc_min_margin_deg_single(here, point) >= need:
-                beyond = (1.0 - f) * theta + self._after_leg[leg]
-                planner.set_goal(point, final=False, beyond_mrp=0.25 * beyond)
-                return
+        if self.follow_route:
+            self.follower = RouteFollower(self.planner, route)
 
     @property
     def route_rotation_deg(self) -> float:
@@ -424,10 +320,9 @@ class Guidance:
     def remaining_rad(self, sigma_t: Vec3Like) -> float:
         """Rotation left to the goal from ``sigma_t``: along the route when one is
         followed, else the principal angle."""
-        if self.route is None or not self.follow_route or not self.route.feasible:
+        if self.follower is None:
             return angle_between_single(sigma_t, self.goal)
-        leg = self._leg
-        return angle_between_single(sigma_t, self.route.waypoints[leg]) + self._after_leg[leg]
+        return self.follower.remaining_rad(sigma_t)
 
     def _to_rim(self, sigma_t: Vec3Like, omega_t: npt.NDArray[np.float64], rim_deg: float) -> float:
         """Rotation (rad) about the rate ``omega_t`` (target axes) until a constraint's
@@ -439,20 +334,6 @@ class Guidance:
         w = [float(x) / size for x in omega_t]
         axis = tuple(w[0] * r0[i] + w[1] * r1[i] + w[2] * r2[i] for i in range(3))
         return math.radians(self.planner.geometry.rotation_to_rim_deg(sigma_t, axis, rim_deg))
-
-    def _corner_cap(self, sigma_t: Vec3Like, alpha: float, dt: float) -> float:
-        """The braking curves to the turns at the waypoints ahead (:func:`corner_speed`)."""
-        if self.route is None or not self.follow_route:
-            return math.inf
-        wp = self.route.waypoints
-        cap = math.inf
-        to_next = angle_between_single(sigma_t, wp[self._leg])
-        for k in range(self._leg, len(wp) - 1):
-            ahead = to_next + self._after_leg[self._leg] - self._after_leg[k]
-            v_turn = corner_speed(alpha, self._turn[k], math.radians(self._swing_deg))
-            if v_turn < cap:
-                cap = min(cap, _braking_speed(alpha, ahead, dt, v_turn))
-        return cap
 
     def _replan(self) -> None:
         """Plan a new route from the target, off the step path."""
@@ -492,8 +373,8 @@ class Guidance:
         self.t_prev = float(t_s)
         planner.advance(dt)
         self._collect_route(float(t_s))
-        if planner.status == PlannerStatus.TRACKING:
-            self._next_waypoint()
+        if planner.status == PlannerStatus.TRACKING and self.follower is not None:
+            self.follower.advance()
         out = planner.propose(dt if dt > 0.0 else nominal, max(nominal, dt))
         e_track = math.degrees(angle_between_single(sigma_bn, out.sigma_t))
         e_goal = math.degrees(angle_between_single(sigma_bn, self.goal))
@@ -541,7 +422,7 @@ class Guidance:
             geometry = self.planner.geometry
             margin = geometry.min_margin_deg_single(sigma_t)
             theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
-            if self.follow_route:
+            if self.follower is not None:
                 # On a route, the rotation to the rim along the way the target turns (its
                 # rate now and the rate asked for): alongside a cone, no braking. The rim
                 # is the buffer's, or RIM_FLOOR of it for a target already at the rim.
@@ -551,9 +432,12 @@ class Guidance:
                 )
                 theta_obs = max(math.radians(max(margin - rim, 0.0)), ahead)
             theta = min(theta, BRAKE_USE * theta_obs)
-            cap = min(cap, _braking_speed(alpha, theta, dt), self._corner_cap(sigma_t, alpha, dt))
+            cap = min(cap, braking_speed(alpha, theta, dt))
+            if self.follower is not None:
+                cap = min(cap, self.follower.corner_cap(sigma_t, alpha, dt))
         wanted = cap
-        if alpha is not None and speed > 0.0 and self.follow_route:
+        follower = self.follower
+        if alpha is not None and speed > 0.0 and follower is not None:
             # Turn before speeding up (on a route): the speed aimed at while the rate vector
             # turns to the new direction keeps the swing of the turn within the route's
             # slack (a soft cap, reached at alpha).
@@ -563,7 +447,7 @@ class Guidance:
             if prev > 0.0 and size > 0.0:
                 cos_turn = float(np.dot(want, self.omega_prev)) / (size * prev)
                 turn = math.acos(min(max(cos_turn, -1.0), 1.0))
-                wanted = min(cap, corner_speed(alpha, turn, math.radians(self._swing_deg)))
+                wanted = min(cap, corner_speed(alpha, turn, math.radians(follower.swing_deg)))
         if speed > wanted:
             omega *= wanted / speed
         if alpha is not None:

@@ -151,7 +151,9 @@ def _roadmap(n: int, k: int) -> Roadmap:
     u = np.repeat(np.arange(n), k + 1)
     v = idx.ravel()
     keep = u != v
-    pairs = np.unique(np.sort(np.stack([u[keep], v[keep]], axis=1), axis=1), axis=0)
+    lo, hi = np.minimum(u[keep], v[keep]), np.maximum(u[keep], v[keep])
+    keys = np.unique(lo.astype(np.int64) * n + hi)  # each pair once, in order
+    pairs = np.stack([keys // n, keys % n], axis=1)
     rotations = Rotation.from_quat(quats)
     axes, angles = _eigen_rotations(rotations[pairs[:, 0]], rotations[pairs[:, 1]])
     return Roadmap(rotations, quats, tree, pairs.astype(np.int64), axes, angles)
