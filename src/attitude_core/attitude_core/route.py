@@ -75,7 +75,10 @@ inside) the buffer's rim: a stalled target planned from again, or a restart."""
 _END_LINKS = 3 * NEIGHBOURS
 _START_TOL_DEG = 1e-6  # a rotation leaving an attitude starts at that attitude's margin
 _PULL_START_DEG = 4.0
-_PULL_MIN_DEG = 0.05  # roadmap nodes the start and the goal are joined to
+_PULL_MIN_DEG = 0.05
+_EDGE_CHUNK = 16384  # roadmap edges per vectorised block (bounds the memory)
+_PULL_TRIES = 24
+_PULL_BUDGET = 72  # tries over all the inner waypoints of a route  # roadmap nodes the start and the goal are joined to
 
 
 def super_fibonacci_quaternions(n: int) -> _Floats:
@@ -223,19 +226,60 @@ class RoutePlanner:
 
     # --- margins ------------------------------------------------------------------
 
-    def _node_margins(self, rotations: Rotation) -> _Floats:
+    def _node_vectors(self, rotations: Rotation) -> tuple[_Floats, _Floats]:
+        """Each attitude's boresights ``(n, n_i, 3)`` and keep-in axes ``(n, n_k, 3)`` in
+        inertial axes."""
+        n = len(rotations)
+        b = np.stack([rotations.apply(x) for x in self._s], axis=1) if len(self._s) else None
+        a = np.stack([rotations.apply(x) for x in self._a], axis=1) if len(self._a) else None
+        return (
+            np.zeros((n, 0, 3)) if b is None else b.reshape(n, -1, 3),
+            np.zeros((n, 0, 3)) if a is None else a.reshape(n, -1, 3),
+        )
+
+    def _node_margins(
+        self, rotations: Rotation, vectors: tuple[_Floats, _Floats] | None = None
+    ) -> _Floats:
         """Exact margins of every constraint at each attitude, rad, ``(n, n_c)``."""
         n = len(rotations)
+        b, a = self._node_vectors(rotations) if vectors is None else vectors
         out = np.empty((n, self.geometry.n_constraints))
         n_o = self.geometry.n_keep_out
         if n_o:
-            b = np.stack([rotations.apply(s) for s in self._s], axis=1)  # (n, n_i, 3)
             cos = np.clip(np.einsum("nik,jk->nij", b, self._c), -1.0, 1.0)
             out[:, :n_o] = (np.arccos(cos) - self._beta[None, :, None]).reshape(n, -1)
         if len(self._gamma):
-            a = np.stack([rotations.apply(x) for x in self._a], axis=1)  # (n, n_k, 3)
             cos = np.clip(np.einsum("nkx,kx->nk", a, self._d), -1.0, 1.0)
             out[:, n_o:] = self._gamma[None, :] - np.arccos(cos)
+        return out
+
+    def _pair_arc_margins(
+        self,
+        vectors: tuple[_Floats, _Floats],
+        start: npt.NDArray[np.int64],
+        axes: _Floats,
+        angles: _Floats,
+        constraint: npt.NDArray[np.int64],
+    ) -> _Floats:
+        """Exact smallest margin (rad) of one constraint along one rotation, per pair:
+        from node ``start[p]`` by ``angles[p]`` about ``axes[p]``, ``constraint[p]``."""
+        b, a = vectors
+        n_o = self.geometry.n_keep_out
+        out = np.empty(len(start))
+        out_mask = constraint < n_o
+        if out_mask.any():
+            c = constraint[out_mask]
+            inst, obj = np.divmod(c, self.geometry.n_objects)
+            hi, _ = arc_cos_extremes(
+                b[start[out_mask], inst], axes[out_mask], angles[out_mask], self._c[obj]
+            )
+            out[out_mask] = np.arccos(hi) - self._beta[inst]
+        if (~out_mask).any():
+            k = constraint[~out_mask] - n_o
+            _, lo = arc_cos_extremes(
+                a[start[~out_mask], k], axes[~out_mask], angles[~out_mask], self._d[k]
+            )
+            out[~out_mask] = self._gamma[k] - np.arccos(lo)
         return out
 
     def _arc_margins(self, start: Rotation, axes: _Floats, angles: _Floats) -> _Floats:
@@ -265,25 +309,34 @@ class RoutePlanner:
         return float(np.degrees(self._arc_margins(Rotation.concatenate([ra]), axis, angle).min()))
 
     def _roadmap_margins(self, rm: Roadmap) -> tuple[_Floats, _Floats]:
-        """Per roadmap: node margins and, for edges that need it, exact arc margins
-        (scenario-dependent, computed once per planner)."""
+        """Per roadmap: node margins ``(n, n_c)`` and each edge's smallest margin along its
+        rotation, rad (scenario-dependent, computed once per planner). A margin changes by
+        at most the rotation angle, so ``(m_u + m_v - theta) / 2`` bounds a constraint's
+        margin along an edge from below; the exact closed form is computed only for the
+        constraints of edges with free ends whose bound falls below the largest clearance
+        the roadmap is searched at (the dense roadmap: the buffer alone)."""
         cached = self._cache.get(rm.size)
         if cached is not None:
             return cached
-        node = self._node_margins(rm.rotations)
+        vectors = self._node_vectors(rm.rotations)
+        node = self._node_margins(rm.rotations, vectors)
         node_min = node.min(axis=1)
-        u, v = rm.edges[:, 0], rm.edges[:, 1]
         lowest = math.radians(self.buffer_deg)
-        # Quick acceptance at the largest clearance; exact arcs for the rest whose ends are free
-        # at the smallest clearance.
-        top = math.radians(self.buffer_deg + EXTRA_CLEARANCE_DEG)
-        need = (node_min[u] > lowest) & (node_min[v] > lowest)
-        need &= node_min[u] + node_min[v] - 2.0 * top < rm.angles
-        edge_min = 0.5 * (node_min[u] + node_min[v] - rm.angles)  # lower bound
-        idx = np.flatnonzero(need)
-        if len(idx):
-            arcs = self._arc_margins(rm.rotations[u[idx]], rm.axes[idx], rm.angles[idx])
-            edge_min[idx] = arcs.min(axis=1)
+        top = (
+            math.radians(self.buffer_deg + EXTRA_CLEARANCE_DEG) if rm.size == self.nodes else lowest
+        )
+        edge_min = np.empty(len(rm.edges))
+        for lo in range(0, len(rm.edges), _EDGE_CHUNK):
+            sl = slice(lo, lo + _EDGE_CHUNK)
+            u, v, ang = rm.edges[sl, 0], rm.edges[sl, 1], rm.angles[sl]
+            bound = 0.5 * (node[u] + node[v] - ang[:, None])  # (E, n_c)
+            free_ends = (node_min[u] > lowest) & (node_min[v] > lowest)
+            e_idx, c_idx = np.nonzero(free_ends[:, None] & (bound < top))
+            if len(e_idx):
+                bound[e_idx, c_idx] = self._pair_arc_margins(
+                    vectors, u[e_idx], rm.axes[sl][e_idx], ang[e_idx], c_idx
+                )
+            edge_min[sl] = bound.min(axis=1)
         self._cache[rm.size] = (node, edge_min)
         return node, edge_min
 
@@ -301,19 +354,32 @@ class RoutePlanner:
         levels = self._clearances(end_margins)
         if direct >= levels[0]:
             return self._route([start, goal], levels[0], 0, t0)
-        last: tuple[Roadmap, npt.NDArray[np.float64], npt.NDArray[np.int64], float] | None = None
-        for size in (self.nodes, FINE_FACTOR * self.nodes):
-            rm = roadmap(size)
-            for level in levels if size == self.nodes else levels[-1:]:
-                if direct >= level:
-                    return self._route([start, goal], level, 0, t0)
-                found = self._search(rm, ends, end_margins, level)
-                if found[0] is not None:
-                    path = self._pull(self._shortcut(found[0], level), level)
-                    return self._route(path, level, rm.size, t0)
-                last = (rm, found[1], found[2], level)
-        assert last is not None
-        return self._infeasible(*last, ends, t0)
+        # The largest clearance first; failing that, the smallest (if the ends are apart
+        # there, they are at every level), then the ones between, largest first.
+        rm = roadmap(self.nodes)
+        order = [levels[0]] + ([levels[-1]] + levels[1:-1] if len(levels) > 1 else [])
+        found_at: dict[float, list[_Floats]] = {}
+        for level in order:
+            if direct >= level:
+                return self._route([start, goal], level, 0, t0)
+            found = self._search(rm, ends, end_margins, level)
+            if found[0] is not None:
+                found_at[level] = found[0]
+                if level == levels[0] or len(found_at) > 1 or len(levels) == 2:
+                    break
+            elif level == levels[-1]:
+                break
+        if found_at:
+            level = max(found_at)
+            path = self._pull(self._shortcut(found_at[level], level), level)
+            return self._route(path, level, rm.size, t0)
+        # None at the buffer: the dense roadmap, at the buffer, before declaring infeasible.
+        dense = roadmap(FINE_FACTOR * self.nodes)
+        found = self._search(dense, ends, end_margins, levels[-1])
+        if found[0] is not None:
+            path = self._pull(self._shortcut(found[0], levels[-1]), levels[-1])
+            return self._route(path, levels[-1], dense.size, t0)
+        return self._infeasible(dense, found[1], found[2], levels[-1], ends, t0)
 
     def _clearances(self, end_margins: _Floats) -> list[float]:
         """Clearance levels, rad, largest first, each below the start's and the goal's
@@ -392,12 +458,16 @@ class RoutePlanner:
 
     def _pull(self, path: list[_Floats], level: float) -> list[_Floats]:
         """Shorten the route locally: each inner waypoint moves by small rotations about
-        the inertial axes (a pattern search, step halved down to :data:`_PULL_MIN_DEG`)
+        the inertial axes (a pattern search, step halved down to :data:`_PULL_MIN_DEG`,
+        at most :data:`_PULL_TRIES` tries a waypoint and :data:`_PULL_BUDGET` in all,
+        which bounds the planning time)
         while the rotation angle through it falls and both of its rotations keep the
         clearance (roadmap nodes are not where a shortest route bends)."""
         rots = [Rotation.from_mrp(p) for p in path]
         steps = Rotation.from_rotvec(np.concatenate([np.eye(3), -np.eye(3)]))
         n = len(steps)
+        inner = max(len(rots) - 2, 1)
+        tries = min(_PULL_TRIES, _PULL_BUDGET // inner)
         for k in range(1, len(rots) - 1):
             prev, nxt = (
                 Rotation.concatenate([rots[k - 1]] * n),
@@ -406,7 +476,9 @@ class RoutePlanner:
             here = rots[k]
             cost = (here * rots[k - 1].inv()).magnitude() + (rots[k + 1] * here.inv()).magnitude()
             h = math.radians(_PULL_START_DEG)
-            while h >= math.radians(_PULL_MIN_DEG):
+            for _ in range(tries):
+                if h < math.radians(_PULL_MIN_DEG):
+                    break
                 cands = Rotation.from_rotvec(steps.as_rotvec() * h) * here
                 a1, t1 = _eigen_rotations(prev, cands)
                 a2, t2 = _eigen_rotations(cands, nxt)
