@@ -72,13 +72,13 @@ FINE_FACTOR = 4
 RIM_FLOOR = 0.75
 """Share of the buffer a rotation may keep when it leaves an attitude already at (or
 inside) the buffer's rim: a stalled target planned from again, or a restart."""
-_END_LINKS = 3 * NEIGHBOURS
+_END_LINKS = 3 * NEIGHBOURS  # roadmap nodes the start and the goal are joined to
 _START_TOL_DEG = 1e-6  # a rotation leaving an attitude starts at that attitude's margin
 _PULL_START_DEG = 4.0
 _PULL_MIN_DEG = 0.05
 _EDGE_CHUNK = 16384  # roadmap edges per vectorised block (bounds the memory)
 _PULL_TRIES = 24
-_PULL_BUDGET = 72  # tries over all the inner waypoints of a route  # roadmap nodes the start and the goal are joined to
+_PULL_BUDGET = 72  # tries over all the inner waypoints of a route
 
 
 def super_fibonacci_quaternions(n: int) -> _Floats:
