@@ -121,7 +121,8 @@ def main() -> int:
         f"enclosed_goal decided infeasible: {warm:.3f} s by a guidance built in a warm "
         f"process (what a running planner node pays: it builds the FIS tables and the "
         f"roadmaps before its first state); cold, {cold:.3f} s for the first guidance "
-        f"(FIS tables and roadmaps built on the way) after {imports:.3f} s of imports; "
+        f"(the roadmaps built on the way; an infeasible slew needs no FIS table) after "
+        f"{imports:.3f} s of imports; "
         f"{wall:.3f} s for the whole process (budget {DECIDE_BUDGET_S:.0f} s)"
     )
     return 0

@@ -58,6 +58,7 @@ import numpy.typing as npt
 from .constraints import ConeGeometry
 from .fis_files import resolve_fis
 from .fuzzy import load_fis, lookup_table
+from .fuzzy.table import FisTable
 from .mrp import Vec3, Vec3Like, mrp_rate_single, omega_from_mrp_rate_single, relative_single
 from .route import RIM_FLOOR
 from .status import PlannerStatus
@@ -162,8 +163,7 @@ class FepfPlanner:
                     f"FIS '{fis.name}': unknown input(s) {sorted(unknown)}; "
                     f"the planner provides {sorted(known)}"
                 )
-        self._table_a = lookup_table(self.fis_a)
-        self._table_r = lookup_table(self.fis_r)
+        self._tables: tuple[FisTable, FisTable] | None = None  # built by prepare()
         self._inputs_a = tuple(self.fis_a.input_names)
         self._inputs_r = tuple(self.fis_r.input_names)
         self._gamma = math.radians(config.gamma_deg)
@@ -199,6 +199,13 @@ class FepfPlanner:
             cfg,
             scenario_dir=os.path.dirname(os.path.abspath(scenario.source)),
         )
+
+    def prepare(self) -> None:
+        """Build the FIS lookup tables now (once per process and definition, a few
+        tenths of a second); the first moving proposal does it otherwise, so a slew
+        declared infeasible before it never pays for them."""
+        if self._tables is None:
+            self._tables = (lookup_table(self.fis_a), lookup_table(self.fis_r))
 
     def set_goal(self, sigma_goal: Vec3Like, final: bool, beyond_mrp: float = 0.0) -> None:
         """Aim at ``sigma_goal`` from now on; ``final`` is False for a route's
@@ -304,14 +311,17 @@ class FepfPlanner:
             "obstacle_distance": 1.0 if self.goal_in_sight else obstacle_input,
             "approach": 0.5 * (1.0 + ac),
         }
-        m_a = cfg.max_attractive_rate_mrp_s * self._table_a(*(inputs[n] for n in self._inputs_a))
+        if self._tables is None:
+            self.prepare()
+        table_a, table_r = cast(tuple[FisTable, FisTable], self._tables)
+        m_a = cfg.max_attractive_rate_mrp_s * table_a(*(inputs[n] for n in self._inputs_a))
         m_r = 0.0
         if d_obs < cfg.influence_distance_mrp and visibility > 0.0:
             inputs["obstacle_distance"] = obstacle_input
             m_r = (
                 visibility
                 * cfg.max_repulsive_rate_mrp_s
-                * self._table_r(*(inputs[n] for n in self._inputs_r))
+                * table_r(*(inputs[n] for n in self._inputs_r))
             )
 
         vx, vy, vz = m_a * a_hat[0], m_a * a_hat[1], m_a * a_hat[2]

@@ -67,6 +67,7 @@ class FepfPlannerNode(Node):
         # Up front: the FIS lookup tables, the roadmap and the route from the scenario's
         # start (taken as is when the first measured attitude is that start).
         prepared = FepfPlanner.from_scenario(self.scenario)
+        prepared.prepare()
         self.routes = Guidance.route_planner(self.scenario, prepared.geometry.inflation_deg)
         self.initial_route = self.routes.plan(self.scenario.initial_mrp, self.scenario.desired_mrp)
         self.route_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="route")
