@@ -73,22 +73,27 @@ def test_closed_loop_is_deterministic_and_physical(summaries):
     assert np.abs(u_est - u_mid).max() < 0.05 * max(1.0, np.abs(run_a.torque_b).max())
 
 
-def test_cli_writes_summary_and_timeseries(tmp_path):
-    out = tmp_path / "run"
-    proc = subprocess.run(
+def offline_cli(name: str, out) -> subprocess.CompletedProcess[str]:
+    """``attitude-offline scenarios/<name>.yaml --out OUT --quiet`` in a subprocess."""
+    return subprocess.run(
         [
             sys.executable,
             "-m",
             "attitude_tools.offline",
-            f"{ROOT}/scenarios/case2.yaml",
+            f"{ROOT}/scenarios/{name}.yaml",
             "--out",
             str(out),
             "--quiet",
-        ],
+        ],  # fmt: skip
         capture_output=True,
         text=True,
         timeout=300,
     )
+
+
+def test_cli_writes_summary_and_timeseries(tmp_path):
+    out = tmp_path / "run"
+    proc = offline_cli("case2", out)
     assert proc.returncode == 0, proc.stderr
     summary = json.loads((out / "summary.json").read_text())
     for key in (
@@ -125,20 +130,7 @@ def test_cli_bad_scenario_exits_nonzero_and_writes_nothing(tmp_path):
 
 def test_cli_infeasible_slew_exits_1_and_says_which_cones_enclose_the_goal(tmp_path):
     out = tmp_path / "run"
-    proc = subprocess.run(
-        [
-            sys.executable,
-            "-m",
-            "attitude_tools.offline",
-            f"{ROOT}/scenarios/enclosed_goal.yaml",
-            "--out",
-            str(out),
-            "--quiet",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=300,
-    )
+    proc = offline_cli("enclosed_goal", out)
     assert proc.returncode == 1, proc.stderr
     assert "infeasible" in proc.stderr and "goal is enclosed by" in proc.stderr
     for k in range(1, 5):

@@ -576,14 +576,20 @@ def test_with_value_edits_the_key():
     assert sc.planner.obstacle_samples == 17
 
 
-@pytest.mark.parametrize("param", BOUNDED_ROWS, ids=lambda q: q.key)
-def test_loader_refuses_a_value_just_outside_the_bound(param):
+def refused_just_outside(text: str, source: str, param) -> None:
+    """Every value just outside ``param``'s bound, in the scenario ``text``, is refused
+    naming the key and the bound's reason."""
     for value in outside_values(param):
         with pytest.raises(ScenarioError) as info:
-            loads_scenario(with_value(CASE1, param.key, value), "case1.yaml")
+            loads_scenario(with_value(text, param.key, value), source)
         assert info.value.key == param.key, (value, str(info.value))
         assert info.value.reason == param.bounds.check(value)
-        assert str(info.value) == f"case1.yaml: {param.key}: {param.bounds.check(value)}"
+        assert str(info.value) == f"{source}: {param.key}: {param.bounds.check(value)}"
+
+
+@pytest.mark.parametrize("param", BOUNDED_ROWS, ids=lambda q: q.key)
+def test_loader_refuses_a_value_just_outside_the_bound(param):
+    refused_just_outside(CASE1, "case1.yaml", param)
 
 
 @pytest.mark.parametrize("param", BOUNDED_ROWS, ids=lambda q: q.key)
@@ -743,11 +749,7 @@ def test_keep_in_file_loads_unedited():
 
 @pytest.mark.parametrize("param", KEEP_IN_BOUNDED, ids=lambda q: q.key)
 def test_loader_refuses_a_keep_in_value_just_outside_the_bound(param):
-    for value in outside_values(param):
-        with pytest.raises(ScenarioError) as info:
-            loads_scenario(with_value(KEEP_IN, param.key, value), "keep_in.yaml")
-        assert info.value.key == param.key, (value, str(info.value))
-        assert info.value.reason == param.bounds.check(value)
+    refused_just_outside(KEEP_IN, "keep_in.yaml", param)
 
 
 @pytest.mark.parametrize("param", KEEP_IN_BOUNDED, ids=lambda q: q.key)

@@ -381,13 +381,7 @@ def fig_trajectory_boresight(ctx: _Context):
             ]
             if not match:
                 continue
-            color = ctx.run_color(k)
-            b = boresight_inertial(run.run.sigma_bn, s_body)
-            ax.plot(*break_wraps(*ra_dec_deg(b)), color=color, linewidth=2.0, zorder=5)
-            b0 = ra_dec_deg(boresight_inertial(sc.initial_mrp[None], s_body)[0])
-            bd = ra_dec_deg(boresight_inertial(sc.desired_mrp[None], s_body)[0])
-            ax.plot(*b0, markeredgecolor=color, zorder=6, **START)
-            ax.plot(*bd, markerfacecolor=color, zorder=6, **GOAL)
+            _sky_track(ax, run, s_body, ctx.run_color(k))
         _sky_axes(ax)
         ax.set_title(
             f"{name}: boresight [{', '.join(f'{x:g}' for x in s_body)}] (body), "
@@ -406,27 +400,24 @@ def fig_trajectory_boresight(ctx: _Context):
     return fig
 
 
+def _sky_track(ax, run, vector_body, color, gid: str | None = None) -> None:
+    """A body vector's inertial track over a run on the sky, with its start and goal."""
+    sc = run.scenario
+    track = boresight_inertial(run.run.sigma_bn, vector_body)
+    ax.plot(*break_wraps(*ra_dec_deg(track)), color=color, linewidth=2.0, zorder=5, gid=gid)
+    start = ra_dec_deg(boresight_inertial(sc.initial_mrp[None], vector_body)[0])
+    goal = ra_dec_deg(boresight_inertial(sc.desired_mrp[None], vector_body)[0])
+    ax.plot(*start, markeredgecolor=color, zorder=6, **START)
+    ax.plot(*goal, markerfacecolor=color, zorder=6, **GOAL)
+
+
 def _keep_in_axis_panel(ctx: _Context, ax, cone: KeepIn) -> None:
     """One keep-in cone on the sky: its allowed cone and each run's axis track."""
     handles = _draw_keep_ins(ctx, ax, [cone])
     for k, run in enumerate(ctx.runs):
-        sc = run.scenario
         if _keep_in_index(run, cone) is None:
             continue
-        color = ctx.run_color(k)
-        a = np.asarray(cone.axis_body)
-        track = boresight_inertial(run.run.sigma_bn, a)
-        ax.plot(
-            *break_wraps(*ra_dec_deg(track)),
-            color=color,
-            linewidth=2.0,
-            zorder=5,
-            gid=f"{cone.key}/axis",
-        )
-        a0 = ra_dec_deg(boresight_inertial(sc.initial_mrp[None], a)[0])
-        ad = ra_dec_deg(boresight_inertial(sc.desired_mrp[None], a)[0])
-        ax.plot(*a0, markeredgecolor=color, zorder=6, **START)
-        ax.plot(*ad, markerfacecolor=color, zorder=6, **GOAL)
+        _sky_track(ax, run, np.asarray(cone.axis_body), ctx.run_color(k), f"{cone.key}/axis")
     _sky_axes(ax)
     ax.set_title(
         f"{cone.key}: axis [{', '.join(f'{x:.3g}' for x in cone.axis_body)}] (body), "
