@@ -285,28 +285,13 @@ class RoutePlanner:
     def _arc_margins(self, start: Rotation, axes: _Floats, angles: _Floats) -> _Floats:
         """Exact smallest margin of every constraint along each rotation (closed form),
         rad, ``(E, n_c)``: ``start`` turned by ``angles`` about the inertial ``axes``."""
-        e = len(angles)
-        out = np.empty((e, self.geometry.n_constraints))
-        n_o = self.geometry.n_keep_out
-        ax = axes[:, None, None, :]
-        ang = angles[:, None, None]
-        if n_o:
-            b = np.stack([start.apply(s) for s in self._s], axis=1)[:, :, None, :]
-            hi, _ = arc_cos_extremes(b, ax, ang, self._c[None, None, :, :])
-            out[:, :n_o] = (np.arccos(hi) - self._beta[None, :, None]).reshape(e, -1)
-        if len(self._gamma):
-            a = np.stack([start.apply(x) for x in self._a], axis=1)[:, :, None, :]
-            d = self._d[None, :, None, :]
-            _, lo = arc_cos_extremes(a, ax, ang, d)
-            out[:, n_o:] = self._gamma[None, :] - np.arccos(lo[:, :, 0])
-        return out
-
-    def arc_margin_deg(self, sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
-        """Smallest exact margin along the short rotation ``sigma_a -> sigma_b``, deg."""
-        ra = Rotation.from_mrp(np.asarray(sigma_a, dtype=float))
-        rb = Rotation.from_mrp(np.asarray(sigma_b, dtype=float))
-        axis, angle = _eigen_rotations(ra, rb)
-        return float(np.degrees(self._arc_margins(Rotation.concatenate([ra]), axis, angle).min()))
+        e, n_c = len(angles), self.geometry.n_constraints
+        arc = np.repeat(np.arange(e), n_c)
+        constraint = np.tile(np.arange(n_c), e)
+        margins = self._pair_arc_margins(
+            self._node_vectors(start), arc, axes[arc], angles[arc], constraint
+        )
+        return margins.reshape(e, n_c)
 
     def _roadmap_margins(self, rm: Roadmap) -> tuple[_Floats, _Floats]:
         """Per roadmap: node margins ``(n, n_c)`` and each edge's smallest margin along its
