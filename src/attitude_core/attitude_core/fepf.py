@@ -229,6 +229,10 @@ class FepfPlanner:
         self._d_goal = math.inf
         self._raw_speed = 0.0
         self._omega_held: Vec3 = (0.0, 0.0, 0.0)  # body rate of the held rate where it was set
+        self._margin_at: Vec3 | None = None  # the target position self._margin belongs to
+        self._margin = math.nan
+        self._arc_key: tuple[Vec3, Vec3] | None = None  # (target, end) of self._arc
+        self._arc = math.nan
         self.wanted_omega: Vec3 = (0.0, 0.0, 0.0)
         self._checked: tuple[tuple[float, ...], float] | None = None
 
@@ -298,7 +302,7 @@ class FepfPlanner:
         self.goal_in_sight = False
         if self.relative:
             if d_obs < cfg.influence_distance_mrp:
-                arc = self.geometry.arc_min_margin_deg_single(self.sigma_t, self.goal)
+                arc = self.arc_margin_deg(self.goal)
                 self.goal_in_sight = arc >= self.sight_margin_deg()
             else:
                 self.goal_in_sight = visibility == 0.0
@@ -371,9 +375,26 @@ class FepfPlanner:
         the step's ends, which the straight MRP step follows to second order)."""
         s = self.sigma_t
         end = (s[0] + rate[0] * dt, s[1] + rate[1] * dt, s[2] + rate[2] * dt)
-        here = self.geometry.min_margin_deg_single(s)
-        need = min(self.geometry.inflation_deg, here)
+        need = min(self.geometry.inflation_deg, self.margin_deg())
         return self.geometry.arc_min_margin_deg_single(s, end) >= need
+
+    def margin_deg(self) -> float:
+        """The exact smallest margin (eq. 5) at the target, deg; computed once per target
+        position (the law, its step check and the guidance all ask for it)."""
+        if self._margin_at != self.sigma_t:
+            self._margin = self.geometry.min_margin_deg_single(self.sigma_t)
+            self._margin_at = self.sigma_t
+        return self._margin
+
+    def arc_margin_deg(self, to: Vec3Like) -> float:
+        """The exact smallest margin along the short rotation from the target to ``to``,
+        deg (closed form); the last one is kept (the guidance and the law ask for the
+        rotation to the same goal in one step)."""
+        key = (self.sigma_t, (float(to[0]), float(to[1]), float(to[2])))
+        if self._arc_key != key:
+            self._arc = self.geometry.arc_min_margin_deg_single(*key)
+            self._arc_key = key
+        return self._arc
 
     def sight_margin_deg(self) -> float:
         """The margin a rotation to the goal must keep all along to count as free: the
@@ -381,7 +402,7 @@ class FepfPlanner:
         restart), :data:`attitude_core.route.RIM_FLOOR` of it or the target's own margin
         if lower, as the route from there keeps."""
         buffer = self.geometry.inflation_deg
-        here = self.geometry.min_margin_deg_single(self.sigma_t)
+        here = self.margin_deg()
         return buffer if here >= buffer else min(RIM_FLOOR * buffer, here) - _SIGHT_TOL_DEG
 
     def _body_rate(self, rate: Vec3) -> Vec3:
@@ -449,7 +470,7 @@ class FepfPlanner:
                 f = limit / step_len
                 vx, vy, vz = vx * f, vy * f, vz * f
         else:
-            floor = min(floor, self.geometry.min_margin_deg_single(self.sigma_t))
+            floor = min(floor, self.margin_deg())
         new = (sx + vx * dt, sy + vy * dt, sz + vz * dt)
         for _ in range(6):
             if self.geometry.min_margin_deg_single(new) >= floor:

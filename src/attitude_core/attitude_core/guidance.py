@@ -420,7 +420,7 @@ class Guidance:
             # Rotation to the buffered rim: a rotation by theta moves a boresight by at
             # most theta, so the exact margin less the buffer bounds it from below.
             geometry = self.planner.geometry
-            margin = geometry.min_margin_deg_single(sigma_t)
+            margin = self.planner.margin_deg()  # at sigma_t, the target just proposed
             theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
             if self.follower is not None:
                 # On a route, the rotation to the rim along the way the target turns (its

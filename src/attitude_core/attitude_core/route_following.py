@@ -118,7 +118,7 @@ class RouteFollower:
         here = planner.sigma_t
         need = planner.sight_margin_deg()
         geometry = planner.geometry
-        if geometry.arc_min_margin_deg_single(here, wp[leg]) >= need:
+        if planner.arc_margin_deg(wp[leg]) >= need:
             if planner.goal != tuple(float(x) for x in wp[leg]):
                 self._aim_at(leg)
             return
