@@ -20,6 +20,7 @@ from conftest import needs_workspace
 from attitude_core import node_graph
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.metrics import arrival_time, dense_min_margin_deg
+from attitude_core.mrp import angle_between_single
 from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import ANGULAR_VELOCITY, ATTITUDE, TARGET_MRP, TARGET_RATE, TORQUE
@@ -212,10 +213,13 @@ def test_planner_restarted_resumes_from_the_measured_attitude(graph):
     has_target = ~np.isnan(run.sigma_t[:, 0])
     assert not has_target[resumed_at - 3 : resumed_at].any()  # no target while it was down
     first = resumed_at + int(np.argmax(has_target[resumed_at:]))
-    # Its first recorded targets continue from there at the planner's speed.
-    assert np.linalg.norm(run.sigma_t[first] - start) <= 0.05 * (
-        run.t[first] - run.t[resumed_at] + 0.1
-    )
+    # Its first recorded target continues from there at the planner's speed: the rotation
+    # from the measured attitude is within what the recorded target rate allows. (It is an
+    # angle, not an MRP distance: the target may have switched to the shadow set; and the
+    # recorder may discover the new publisher some steps late.)
+    speed = float(np.nanmax(np.linalg.norm(run.omega_t, axis=1)))
+    rotation = angle_between_single(run.sigma_t[first], start)
+    assert rotation <= speed * (run.t[first] - run.t[resumed_at] + 0.1) + 1e-3
 
 
 def test_torque_link_dropping_10_percent_neither_deadlocks_nor_changes_the_run(tmp_path, ros_env):
