@@ -2,33 +2,26 @@
 
 Tests that start ROS 2 nodes must not share a DDS domain with each other, with a
 concurrent test run on the same machine, or with anything else using the
-``domain_coordinator`` convention of ROS 2 (``ament_cmake_ros``): a domain ``d`` is in
-use while some process holds a TCP socket bound to port ``DOMAIN_PORT_BASE + d`` on this
-host. We take the same base port, so our reservations and domain_coordinator's exclude
-each other. The socket is only bound (never listened on, so nothing can connect to it),
-it is not inherited by child processes (Python's default), and the kernel frees it when
-the test process ends, however it ends: a crashed run leaves no stale reservation.
-
-IDs are 1..101 only: on Linux the DDS ports of domain ``d`` (7400 + 250 d + ...) stay
-below the ephemeral port range (32768...) for those, and 0, the default domain, is left
-to interactive use. The IDs are tried in random order (unseeded); ``bind`` is atomic, so
-two processes can never hold the same one, and a taken port is simply skipped.
+``domain_coordinator`` convention of ROS 2: each test holds the lock of
+:mod:`attitude_tools.domain` (the one ``attitude-run`` takes when no ``ROS_DOMAIN_ID`` is
+set) on a domain of its own, freed by the kernel however the test process ends.
 """
 
 from __future__ import annotations
 
 import os
-import random
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+
+from attitude_tools.domain import DomainReservation, NoFreeDomain, domain_environment
+from attitude_tools.domain import reserve_domain as _reserve_domain
 
 ROOT = Path(__file__).resolve().parents[1]
 needs_workspace = pytest.mark.skipif(
@@ -114,60 +107,13 @@ def run_with_bridge(
     return subprocess.CompletedProcess(args, run.returncode, stdout, stderr), bridge.returncode
 
 
-DOMAIN_PORT_BASE = 22119  # domain_coordinator's _PORT_BASE
-DOMAIN_IDS = range(1, 102)
-
-
-class DomainReservation:
-    """A reserved ROS domain ID: held until :meth:`release` (or the ``with`` block ends)."""
-
-    def __init__(self, domain_id: int, sock: socket.socket) -> None:
-        self.id = domain_id
-        self._sock = sock
-
-    def env(self, base: Mapping[str, str] | None = None) -> dict[str, str]:
-        """A copy of ``base`` (default ``os.environ``) for this domain, discovery on this
-        host only (no static peers, no deprecated ``ROS_LOCALHOST_ONLY``)."""
-        return domain_environment(self.id, base)
-
-    def release(self) -> None:
-        self._sock.close()
-
-    def __enter__(self) -> DomainReservation:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
-
-def domain_environment(domain_id: int, base: Mapping[str, str] | None = None) -> dict[str, str]:
-    env = dict(os.environ if base is None else base)
-    env["ROS_DOMAIN_ID"] = str(domain_id)
-    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
-    env.pop("ROS_STATIC_PEERS", None)
-    env.pop("ROS_LOCALHOST_ONLY", None)
-    return env
-
-
 def reserve_domain() -> DomainReservation:
-    """Reserve a free ROS domain ID in 1..101 (random order); fail if none is free."""
-    ids = list(DOMAIN_IDS)
-    random.SystemRandom().shuffle(ids)
-    for domain_id in ids:
-        sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        try:
-            sock.bind(("127.0.0.1", DOMAIN_PORT_BASE + domain_id))
-        except OSError:
-            sock.close()
-            continue
-        return DomainReservation(domain_id, sock)
-    pytest.fail(
-        f"no free ROS domain ID: all of {DOMAIN_IDS.start}..{DOMAIN_IDS.stop - 1} are "
-        f"reserved (TCP ports {DOMAIN_PORT_BASE + DOMAIN_IDS.start}.."
-        f"{DOMAIN_PORT_BASE + DOMAIN_IDS.stop - 1} on 127.0.0.1 are bound): too many "
-        "concurrent ROS test runs, or leftover processes holding them (see `ss -tanp`)",
-        pytrace=False,
-    )
+    """Reserve a free ROS domain ID (:func:`attitude_tools.domain.reserve_domain`); fail
+    the test if none is free."""
+    try:
+        return _reserve_domain()
+    except NoFreeDomain as err:
+        pytest.fail(str(err), pytrace=False)
 
 
 class StepProbe:

@@ -89,7 +89,9 @@ class Graph:
     def _on_state(self, msg) -> None:
         self.clock_s = max(self.clock_s, _stamp(msg) * 1e-9)
 
-    def start(self) -> None:
+    def start(self, simulator: bool = True) -> None:
+        """Start the nodes (``simulator=False``: all but the simulator, which
+        :meth:`start_simulator` starts later; nothing steps before it)."""
         g = self.graph
         g.start(
             node_graph.RECORDER,
@@ -106,7 +108,11 @@ class Graph:
         )
         g.start(node_graph.PLANNER, self.params)
         g.start(node_graph.CONTROLLER, self.params)
-        g.start(node_graph.SIMULATOR, self.params + self.sim_params)
+        if simulator:
+            self.start_simulator()
+
+    def start_simulator(self) -> None:
+        self.graph.start(node_graph.SIMULATOR, self.params + self.sim_params)
 
     def wait_clock(self, t_s: float) -> None:
         deadline = time.monotonic() + WAIT_S

@@ -57,3 +57,12 @@ def test_fingerprint_is_equal_for_the_same_scenario_and_differs_for_any_change(t
     changed.write_text(text.replace(str(list(map(float, goal))), moved))
     assert load_scenario(changed).desired_mrp[2] != goal[2]
     assert ri.scenario_fingerprint(load_scenario(changed)) != fp
+
+
+def test_diagnostics_may_come_from_any_node_of_the_run_and_from_other_tools():
+    ns = ri.run_namespace()
+    mine = [E(ns, "pd_controller"), E(ns, "bag_recorder"), E(ns, "my_bridge")]
+    other_tool = E("/", "diagnostic_aggregator")
+    other_run = E("/attitude_run_other", "fepf_planner")
+    found = ri.foreign_publishers(t.DIAGNOSTICS, [*mine, other_tool, other_run], ns)
+    assert found == [other_run]

@@ -214,16 +214,43 @@ def test_realtime_start_publishes_no_state():
 # --- lockstep ---------------------------------------------------------------------------
 
 
-def test_lockstep_torque_with_the_wrong_stamp_is_ignored():
+def test_lockstep_torque_with_the_wrong_stamp_is_refused_or_ignored():
+    """A torque answering no published state (ahead, negative, a day in the future) is
+    refused and counted; a late answer to an earlier state is ignored. Neither moves the
+    body, and the real answer still advances it."""
     s = make()
     _, t = start(s)
-    for stamp in (DT_NS, -1, 1, 5 * DT_NS):
+    ref = make_body()
+    u = torques(1)[0]
+    assert s.on_torque(t, 0, u).action is Action.ADVANCE  # state 1 is published
+    ref.step(u, DT)
+    for n, stamp in enumerate((2 * DT_NS, -1, 1, 5 * DT_NS, 86_400 * 10**9), 1):
         d = s.on_torque(t + 0.01, stamp, np.array([1.0, 2.0, 3.0]))
-        assert d.action is Action.IGNORE and d.state is None and d.applied is None
-    assert s.k == 0 and s.rejected == 0 and s.waiting_stamp == 0
-    ref = make_body()  # the body did not move
+        assert d.action is Action.REJECT and d.state is None and d.applied is None
+        assert d.reason.startswith(f"stamp {stamp} ns answers no state")
+        assert s.rejected == n
+    d = s.on_torque(t + 0.01, 0, np.array([1.0, 2.0, 3.0]))  # late answer to state 0
+    assert d.action is Action.IGNORE and s.rejected == 5
+    assert s.k == 1 and s.waiting_stamp == DT_NS
     np.testing.assert_array_equal(s.body.sigma_bn, ref.sigma_bn)
     np.testing.assert_array_equal(s.body.omega_b, ref.omega_b)
+    assert s.on_torque(t + 0.02, DT_NS, u).action is Action.ADVANCE
+
+
+def test_torque_beyond_the_plausible_bound_is_refused_never_integrated():
+    """``plausible_torque_nm`` (the scenario's ``actuators.max_torque_nm`` when set): a
+    torque of 1e300 N m is refused and counted; the state stays finite."""
+    for mode in (LOCKSTEP, REALTIME):
+        s = make(time_mode=mode, plausible_torque_nm=(0.1, 0.1, 0.1))
+        _, t = start(s)
+        if mode == REALTIME:
+            s.on_timer(t, 0)
+        for n, u in enumerate(([1e300, 0.0, 0.0], [0.0, -0.1000001, 0.0]), 1):
+            d = s.on_torque(t, 0, np.array(u))
+            assert d.action is Action.REJECT and "exceeds the plausible bound" in d.reason
+            assert s.rejected == n
+        assert s.on_torque(t, 0, np.array([0.1, -0.1, 0.05])).action is not Action.REJECT
+        assert np.isfinite(s.body.omega_b).all()
 
 
 def test_lockstep_matching_torque_advances_like_an_independent_rigid_body():
@@ -410,6 +437,8 @@ def test_torque_in_another_frame_is_rejected_and_counted(mode):
         assert d.reason == f"frame_id {frame!r}, expected 'body'"
         assert s.rejected == n
     assert s.k == 0 and s.torque_stamp == -1
+    if mode == REALTIME:
+        s.on_timer(t, 0)  # state 0 is published: the torque answers it
     accepted = s.on_torque(t, 0, u, "body").action
     assert accepted is (Action.ADVANCE if mode == LOCKSTEP else Action.ACCEPT)
 
@@ -458,14 +487,15 @@ def test_realtime_older_torque_is_rejected():
     s = make(time_mode=REALTIME)
     _, t = start(s)
     u_new, u_old = torques(2)
+    s.on_timer(t, 499)
+    s.on_timer(t, 500)  # states stamped 499 and 500 are published
     assert s.on_torque(t, 500, u_new).action is Action.ACCEPT
     d = s.on_torque(t + 0.01, 499, u_old)
     assert d.action is Action.REJECT
     assert d.reason == "stamp 499 ns is older than the applied torque's 500 ns"
     assert s.rejected == 1
     assert s.on_torque(t + 0.02, 500, u_new).action is Action.ACCEPT  # same stamp: fine
-    s.on_timer(t + 0.03, 1)
-    d = s.on_timer(t + 0.04, 2)
+    d = s.on_timer(t + 0.04, 501)
     assert_torque(d.applied, u_new)
 
 
@@ -473,12 +503,26 @@ def test_realtime_non_finite_torque_is_rejected_and_counted():
     s = make(time_mode=REALTIME)
     _, t = start(s)
     u = torques(1)[0]
+    s.on_timer(t, 10)
+    s.on_timer(t, 20)
     assert s.on_torque(t, 10, u).action is Action.ACCEPT
     d = s.on_torque(t, 20, np.array([0.0, np.nan, 0.0]))
     assert d.action is Action.REJECT and "non-finite" in d.reason
     assert s.rejected == 1 and s.torque_stamp == 10
-    s.on_timer(t, 1)
-    assert_torque(s.on_timer(t + 0.01, 2).applied, u)
+    assert_torque(s.on_timer(t + 0.01, 30).applied, u)
+
+
+def test_realtime_torque_stamped_ahead_is_refused_and_real_answers_still_apply():
+    """A torque stamped a day ahead answers no published state: refused and counted; the
+    real answers that follow are applied (it never becomes the reference)."""
+    s = make(n_steps=10, time_mode=REALTIME)
+    _, t = start(s)
+    u = torques(1)[0]
+    s.on_timer(t, 1_000)
+    d = s.on_torque(t, 1_000 + 86_400 * 10**9, np.array([0.01, 0.0, 0.0]))
+    assert d.action is Action.REJECT and s.rejected == 1
+    assert s.on_torque(t, 1_000, u).action is Action.ACCEPT
+    assert_torque(s.on_timer(t + DT, 2_000).applied, u)
 
 
 def test_realtime_stale_torque_applies_zero_until_a_torque_arrives():
@@ -519,9 +563,10 @@ def test_realtime_finish_after_n_steps_plus_one_ticks():
     _, t = start(s)
     ref = make_body()
     u = torques(1)[0]
-    s.on_torque(t, 0, u)
     for k in range(n + 1):  # states 0..n: n steps of the body
         d = s.on_timer(t + 0.01 * k, 100 + k)
+        if k == 0:
+            assert s.on_torque(t, 100, u).action is Action.ACCEPT
         assert d.action is Action.ADVANCE and d.state.k == k
         if k:
             ref.step(u, DT)

@@ -11,6 +11,19 @@ clock in real time); unstamped messages (status, margin) get the latest stamp se
 so the bag's timeline is the run's timeline. The receive wall time is kept as the
 publish time. The bag is finished on every way out (end, SIGINT, SIGTERM).
 
+A message with an implausible stamp (``attitude_core.recording.implausible_stamp``:
+negative fields, or more than ``STAMP_AHEAD_LIMIT_S`` of run time ahead of the latest
+plausible stamp) is still recorded, at the latest plausible stamp, like an unstamped
+one; it never moves the timeline or the stop rule. It is counted, warned about
+(throttled, naming topic and stamp), the count is in the close log line and in the
+bag's metadata.yaml ``custom_data.recorder_bad_stamps``.
+
+The bag writer finishes its chunk every 0.25 s of wall time, so a recorder killed at
+any moment loses at most that much (``attitude-bag-recover`` or ``attitude-run``
+finishes the bag). A failed write (a full disk) stops the recording: the error is
+logged with the path and cause and the recorder exits ``EXIT_DISK_FULL`` (4) or
+``EXIT_WRITE_FAILED`` (5), leaving the bag for recovery.
+
 Parameters: ``output_dir`` (required); ``stop_on_planner_status`` (planner statuses
 that end the recording, ``PlannerStatus`` values, read from the stamped
 ``/diagnostics`` so the stop is exact in run time; empty: record until shut down);
@@ -33,20 +46,31 @@ from rclpy.serialization import deserialize_message
 from attitude_core import node_graph
 from attitude_core.diagnostics import PlannerDiagnostics
 from attitude_core.parameters import NodeParameterError
-from attitude_core.recording import EXIT_NO_PLANT, Outcome, StopRule
+from attitude_core.recording import (
+    EXIT_DISK_FULL,
+    EXIT_NO_PLANT,
+    EXIT_WRITE_FAILED,
+    Outcome,
+    StopRule,
+    implausible_stamp,
+)
 from attitude_core.scenario import is_ros_builtin, loads_scenario, scenario_yaml
 from attitude_core.status import PlannerStatus
 from attitude_ros import contract as c
 from attitude_ros.params import declare_node_parameters, undeclared_parameters
+from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
-from attitude_tools.bag import BagWriter, qos_profile_yaml
+from attitude_tools.bag import BagWriteError, BagWriter, qos_profile_yaml
+
+BAD_STAMP_WARN_EVERY_S = 5.0
+"""Wall time between two warnings about implausible stamps (the first is logged at once)."""
 
 
-def _stamp_ns(data: bytes) -> int:
-    """Stamp of a message whose first field is a ``builtin_interfaces/Time`` (raw CDR)."""
+def _stamp(data: bytes) -> tuple[int, int]:
+    """(sec, nanosec) of a message whose first field is a ``builtin_interfaces/Time``."""
     endian = "<" if data[1] & 1 else ">"
     sec, nanosec = struct.unpack_from(endian + "iI", data, 4)
-    return sec * c.NS_PER_S + nanosec
+    return sec, nanosec
 
 
 class BagRecorderNode(Node):
@@ -66,9 +90,12 @@ class BagRecorderNode(Node):
             scenario_time_s=None if scenario is None else scenario.sim_time_s,
             plant_timeout_s=own["plant_timeout_s"],
         )
+        self.scenario_time_s = None if scenario is None else scenario.sim_time_s
         self.done, self.exit_code, self._drain_count = False, 0, -1
         self.last_stamp_ns: int | None = None
         self.unstamped: list[tuple[str, bytes, int]] = []  # before the first stamp
+        self.bad_stamps, self._bad_warned_at = 0, -float("inf")
+        self.write_error: BagWriteError | None = None
         self.writer = BagWriter(self.output_dir)
         if scenario_text:
             self.writer.add_attachment("scenario.yaml", scenario_text.encode(), "application/yaml")
@@ -93,6 +120,16 @@ class BagRecorderNode(Node):
                 qos_overriding_options=c.state_qos_overrides(topic),
             )
         self.create_timer(0.1, self.check_outcome)
+        # Foreign publishers on any contract topic are logged and counted (attitude-run
+        # names them in the summary); the recorder records on.
+        self.guard = RunGuard(
+            self,
+            node_graph.RECORDER,
+            scenario,
+            lambda code, reason: None,
+            stamp_ns=lambda: self.last_stamp_ns or 0,
+            stops=False,
+        )
         stops = sorted(s.value for s in self.stop.stop_on)
         self.get_logger().info(
             f"recording {len(c.TOPICS)} topics to {self.output_dir}"
@@ -116,14 +153,35 @@ class BagRecorderNode(Node):
         markers = tuple(status.value.encode() for status in self.stop.stop_on)
 
         def on_message(data: bytes) -> None:
+            if self.write_error is not None:
+                return  # recording stopped
+            try:
+                record(data)
+            except BagWriteError as err:
+                self.on_write_failed(err)
+
+        def record(data: bytes) -> None:
             wall = time.time_ns()
-            if not stamped:  # logged at the latest stamp, so the bag is on the run's timeline
+            bad = None
+            unstamped = not stamped
+            if stamped:
+                sec, nanosec = _stamp(data)
+                # A zero stamp on /diagnostics: a node's run identity before its first state.
+                unstamped = name == c.DIAGNOSTICS and sec == 0 and nanosec == 0
+                bad = None
+                if not unstamped:
+                    bad = implausible_stamp(
+                        sec, nanosec, self.last_stamp_ns, wall, self.scenario_time_s
+                    )
+                if bad is not None:
+                    self.on_bad_stamp(name, sec, nanosec, bad)
+            if unstamped or bad is not None:  # logged at the latest stamp: on the timeline
                 if self.last_stamp_ns is None:
                     self.unstamped.append((name, data, wall))
                 else:
                     self.writer.write(name, data, self.last_stamp_ns, wall)
                 return
-            log_time = _stamp_ns(data)
+            log_time = sec * c.NS_PER_S + nanosec
             if not self.stop.on_stamped(name, log_time, time.monotonic()):
                 self.check_outcome()
                 return
@@ -152,7 +210,42 @@ class BagRecorderNode(Node):
                     f"until {self.stop.stop_at_ns / 1e9:.3f} s"
                 )
 
+    def on_bad_stamp(self, topic: str, sec: int, nanosec: int, why: str) -> None:
+        """Count a message with an implausible stamp; warn, throttled."""
+        self.bad_stamps += 1
+        now = time.monotonic()
+        if now - self._bad_warned_at < BAD_STAMP_WARN_EVERY_S:
+            return
+        self._bad_warned_at = now
+        at = (
+            "held until the first stamp"
+            if self.last_stamp_ns is None
+            else (f"recorded at the latest stamp {self.last_stamp_ns / 1e9:.3f} s")
+        )
+        self.get_logger().warning(
+            f"implausible stamp on {topic}: sec={sec} nanosec={nanosec} ({why}); {at}; "
+            f"{self.bad_stamps} implausible stamps so far"
+        )
+        self.writer.update_custom_data(recorder_bad_stamps=str(self.bad_stamps))
+
+    def on_write_failed(self, err: BagWriteError) -> None:
+        """Stop recording after a failed write: log path and cause, exit non-zero."""
+        if self.write_error is not None:
+            return
+        self.write_error = err
+        cause = f"disk full: {err}" if err.disk_full else f"write failed: {err}"
+        self.get_logger().error(
+            f"cannot record the bag: {cause}; recording stopped, {self.writer.message_count} "
+            f"messages kept for recovery (attitude-bag-recover {self.output_dir})"
+        )
+        self.done = True
+        self.exit_code = EXIT_DISK_FULL if err.disk_full else EXIT_WRITE_FAILED
+
     def check_outcome(self) -> None:
+        if self.write_error is None and self.writer.error is not None:  # the flusher failed
+            self.on_write_failed(self.writer.error)
+        if self.write_error is not None:
+            return
         outcome = self.stop.poll(time.monotonic())
         if outcome is Outcome.NO_PLANT and not self.done:
             self.get_logger().error(
@@ -161,6 +254,11 @@ class BagRecorderNode(Node):
             )
             self.done, self.exit_code = True, EXIT_NO_PLANT
         elif outcome is Outcome.DONE and not self.done:
+            try:
+                self.writer.flush()  # a full disk shows now, in the exit code
+            except BagWriteError as err:
+                self.on_write_failed(err)
+                return
             self.get_logger().info(f"recording complete ({self.stop.reason})")
             self.done = True
 
@@ -169,12 +267,23 @@ class BagRecorderNode(Node):
         subscription queues on SIGINT/SIGTERM before closing the bag)."""
         count = self.writer.message_count
         drained, self._drain_count = count == self._drain_count, count
+        if drained and self.write_error is None:
+            try:
+                self.writer.flush()  # a full disk shows now, in the exit code
+            except BagWriteError as err:
+                self.on_write_failed(err)
         return drained
 
     def close(self) -> None:
-        self.writer.close()
+        self.writer.custom_data["recorder_bad_stamps"] = str(self.bad_stamps)
+        try:
+            self.writer.close()
+        except BagWriteError as err:  # after the exit code was taken: logged only
+            self.on_write_failed(err)
+        state = "left unfinished for recovery" if self.writer.error else "closed"
         self.get_logger().info(
-            f"bag closed: {self.writer.message_count} messages in {self.output_dir}"
+            f"bag {state}: {self.writer.message_count} messages in {self.output_dir}; "
+            f"{self.bad_stamps} implausible stamps"
         )
 
 

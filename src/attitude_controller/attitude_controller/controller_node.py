@@ -17,6 +17,7 @@ lockstep run nor breaks a constraint.
 from __future__ import annotations
 
 import random
+import time
 from typing import Any
 
 from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
@@ -24,11 +25,12 @@ from rclpy.node import Node
 
 from attitude_core import node_graph
 from attitude_core.control import PdGains, commanded_torque
+from attitude_core.plausibility import implausible_mrp, implausible_rate
+from attitude_core.stamp_gate import StampGate
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     bad_frame,
     bad_quaternion,
-    bad_vector,
     mrp_from_quaternion,
     reject,
     set_vector3,
@@ -36,6 +38,7 @@ from attitude_ros.convert import (
     vector3,
 )
 from attitude_ros.params import declare_scenario_node
+from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
 
 _PENDING_MAX = 64  # stamps kept while waiting for their other inputs
@@ -52,14 +55,23 @@ class PdControllerNode(Node):
         self.pending: dict[int, list] = {}
         self.last_stamp: int | None = None  # stamp of the last torque, and the torque
         self.last_torque: WrenchStamped | None = None
-        self.rejected = 0
+        self.gate = StampGate(self.scenario.sim_time_s)
+        self.bad_values = 0  # refused for their content (frame, quaternion, bounds)
+        self.done, self.exit_code = False, 0
+        self.guard = RunGuard(
+            self,
+            node_graph.CONTROLLER,
+            self.scenario,
+            self.stop,
+            stamp_ns=lambda: self.last_stamp or 0,
+        )
         self.pub_torque = self.create_publisher(WrenchStamped, c.TORQUE, c.qos(c.topic(c.TORQUE)))
         for slot, (name, msg_type, convert) in enumerate(
             (
                 (c.ATTITUDE, QuaternionStamped, self.attitude),
-                (c.ANGULAR_VELOCITY, Vector3Stamped, self.vector),
-                (c.TARGET_MRP, Vector3Stamped, self.vector),
-                (c.TARGET_RATE, Vector3Stamped, self.vector),
+                (c.ANGULAR_VELOCITY, Vector3Stamped, self.rate),
+                (c.TARGET_MRP, Vector3Stamped, self.target_mrp),
+                (c.TARGET_RATE, Vector3Stamped, self.target_rate),
             )
         ):
             self.create_subscription(
@@ -80,31 +92,63 @@ class PdControllerNode(Node):
         return (None, reason) if reason else (mrp_from_quaternion(msg.quaternion), None)
 
     @staticmethod
-    def vector(msg):
+    def rate(msg):
         v = vector3(msg.vector)
-        reason = bad_vector(v, "vector")
+        reason = implausible_rate(v)
         return (None, reason) if reason else (v, None)
+
+    @staticmethod
+    def target_mrp(msg):
+        v = vector3(msg.vector)
+        reason = implausible_mrp(v, "target MRP")
+        return (None, reason) if reason else (v, None)
+
+    @staticmethod
+    def target_rate(msg):
+        v = vector3(msg.vector)
+        reason = implausible_rate(v, "target rate")
+        return (None, reason) if reason else (v, None)
+
+    @property
+    def rejected(self) -> int:
+        """Refused input messages: implausible stamps and bad values."""
+        return self.gate.rejected + self.bad_values
+
+    @rejected.setter
+    def rejected(self, total: int) -> None:  # convert.reject counts through this
+        self.bad_values = total - self.gate.rejected
+
+    def stop(self, code: int, reason: str) -> None:
+        """The run guard's verdict: stop answering, exit with ``code``."""
+        self.done, self.exit_code = True, code
 
     def callback(self, slot: int, name: str, convert):
         def on_message(msg) -> None:
-            stamp = stamp_ns(msg.header.stamp)
-            if stamp == self.last_stamp:  # lockstep re-send: answer again, identically
+            if not self.guard.admit(name):
+                return
+            verdict = self.gate.screen(
+                msg.header.stamp.sec, msg.header.stamp.nanosec, time.time_ns()
+            )
+            if verdict.repeat:  # lockstep re-send: answer again, identically
                 if slot == 0:
                     self.publish(self.last_torque)
                 return
-            reason = None
-            if self.last_stamp is not None and stamp < self.last_stamp:
-                reason = f"stamp {stamp} ns is older than the last torque's {self.last_stamp} ns"
-            else:
-                reason = bad_frame(msg, name)
-                if reason is None:
-                    value, reason = convert(msg)
+            if not verdict.accept:
+                reject(self, name, verdict.reason, count=self.rejected)
+                return
+            if verdict.reason:  # accepted, with a note (the gate re-anchored)
+                self.get_logger().warning(f"{name}: {verdict.reason}")
+            stamp = stamp_ns(msg.header.stamp)
+            reason = bad_frame(msg, name)
+            if reason is None:
+                value, reason = convert(msg)
             if reason:
                 reject(self, name, reason)
                 return
             inputs = self.pending.setdefault(stamp, [None] * 4)
             inputs[slot] = value
             if all(x is not None for x in inputs):
+                self.gate.take(stamp, time.time_ns())
                 self.answer(stamp, msg.header.stamp, inputs)
             elif len(self.pending) > _PENDING_MAX:
                 del self.pending[min(self.pending)]

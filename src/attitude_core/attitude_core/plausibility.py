@@ -18,7 +18,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import numpy as np
+import numpy.typing as npt
+
 from .scenario import Scenario
+
+Values = Sequence[float] | npt.NDArray[np.float64]
 
 __all__ = [
     "DEFAULT_MAX_TORQUE_NM",
@@ -56,13 +61,13 @@ def torque_bound_nm(scenario: Scenario) -> tuple[float, float, float]:
     return (x, y, z)
 
 
-def _finite(values: Sequence[float], name: str) -> str | None:
+def _finite(values: Values, name: str) -> str | None:
     if not all(math.isfinite(v) for v in values):
         return f"{name} has a non-finite element {[float(v) for v in values]}"
     return None
 
 
-def implausible_torque(u: Sequence[float], bound: Sequence[float]) -> str | None:
+def implausible_torque(u: Values, bound: Sequence[float]) -> str | None:
     """Why a commanded torque (body axes, N m) is not plausible, else None."""
     reason = _finite(u, "torque")
     if reason:
@@ -76,7 +81,7 @@ def implausible_torque(u: Sequence[float], bound: Sequence[float]) -> str | None
     return None
 
 
-def implausible_rate(omega: Sequence[float], name: str = "angular velocity") -> str | None:
+def implausible_rate(omega: Values, name: str = "angular velocity") -> str | None:
     """Why a rate (rad/s) is not plausible, else None."""
     reason = _finite(omega, name)
     if reason:
@@ -87,7 +92,7 @@ def implausible_rate(omega: Sequence[float], name: str = "angular velocity") -> 
     return None
 
 
-def implausible_mrp(sigma: Sequence[float], name: str = "MRP") -> str | None:
+def implausible_mrp(sigma: Values, name: str = "MRP") -> str | None:
     """Why a transmitted MRP is not plausible (non-finite, or beyond the unit ball)."""
     reason = _finite(sigma, name)
     if reason:

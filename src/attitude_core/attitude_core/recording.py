@@ -19,10 +19,60 @@ from collections.abc import Iterable
 from .status import PlannerStatus
 from .topics import ATTITUDE, NS_PER_S
 
-__all__ = ["Outcome", "StopRule", "EXIT_NO_PLANT"]
+__all__ = [
+    "Outcome",
+    "StopRule",
+    "EXIT_NO_PLANT",
+    "EXIT_DISK_FULL",
+    "EXIT_WRITE_FAILED",
+    "STAMP_AHEAD_LIMIT_S",
+    "implausible_stamp",
+]
 
-EXIT_NO_PLANT = 3
-"""The recorder's exit code for :attr:`Outcome.NO_PLANT` (``attitude-run`` reads it)."""
+# The recorder's exit codes (the table is attitude_core.exit_codes).
+from .exit_codes import EXIT_DISK_FULL, EXIT_NO_PLANT, EXIT_WRITE_FAILED
+from .stamp_gate import timelines
+
+STAMP_AHEAD_LIMIT_S = 60.0
+"""A stamp more than this much run time ahead of the latest plausible stamp is
+implausible (run time, not wall time: lockstep runs much faster than the wall)."""
+
+
+def implausible_stamp(
+    sec: int,
+    nanosec: int,
+    last_good_ns: int | None,
+    wall_ns: int | None = None,
+    sim_time_s: float | None = None,
+) -> str | None:
+    """Why a message stamp (``builtin_interfaces/Time`` fields) is implausible, or None.
+
+    Plausible: ``sec >= 0``, ``0 <= nanosec < 1e9`` and, once a plausible stamp
+    exists, at most :data:`STAMP_AHEAD_LIMIT_S` ahead of the latest one. Before one
+    exists, with the receive time ``wall_ns`` and the scenario's ``sim_time_s``, the
+    stamp must be on a timeline a run can have (:func:`attitude_core.stamp_gate.timelines`:
+    simulated time, or this host's clock), so a stray first stamp cannot become the
+    reference.
+    """
+    if sec < 0:
+        return f"negative seconds ({sec})"
+    if not 0 <= nanosec < NS_PER_S:
+        return f"nanosec {nanosec} out of [0, 1e9)"
+    stamp = sec * NS_PER_S + nanosec
+    if (
+        last_good_ns is None
+        and wall_ns is not None
+        and sim_time_s is not None
+        and not timelines(stamp, wall_ns, sim_time_s)
+    ):
+        return (
+            f"{stamp / NS_PER_S:.9g} s is neither simulated time of the scenario nor "
+            "near this host's clock"
+        )
+    ahead_ns = sec * NS_PER_S + nanosec - (last_good_ns if last_good_ns is not None else 0)
+    if last_good_ns is not None and ahead_ns > STAMP_AHEAD_LIMIT_S * NS_PER_S:
+        return f"{ahead_ns / NS_PER_S:.6g} s ahead of the latest stamp"
+    return None
 
 
 class Outcome(enum.Enum):

@@ -34,13 +34,13 @@ import numpy as np
 
 from . import node_graph
 from . import topics as t
+from .exit_codes import EXIT_FINGERPRINT_MISMATCH, EXIT_FOREIGN_PUBLISHER
 from .scenario import Scenario
 
 __all__ = [
     "RUN_NAMESPACE_PREFIX",
     "EXIT_FOREIGN_PUBLISHER",
     "EXIT_FINGERPRINT_MISMATCH",
-    "EXIT_DOMAIN_BUSY",
     "IDENTITY_HARDWARE_ID",
     "ROLE",
     "RUN_NAMESPACE",
@@ -58,12 +58,6 @@ __all__ = [
 
 RUN_NAMESPACE_PREFIX = "attitude_run_"
 
-EXIT_FOREIGN_PUBLISHER = 3
-"""A node of a run saw a publisher of another run, or of none, on a topic it takes."""
-EXIT_FINGERPRINT_MISMATCH = 5
-"""A node of the run was started with another scenario than its peers."""
-EXIT_DOMAIN_BUSY = 6
-"""Nodes of another run are alive on this ROS domain."""
 
 # The identity a node publishes in /diagnostics (DiagnosticStatus.name is its full name).
 IDENTITY_HARDWARE_ID = "attitude_run"
@@ -116,7 +110,11 @@ def foreign_publishers(
     """The publishers of ``topic`` that are not the run's own (see the module docstring).
 
     In the root namespace (nodes started by hand) every node of the table publishing its
-    own topics counts as own, and so does any plant."""
+    own topics counts as own, and so does any plant. On ``/diagnostics``, where every
+    node publishes its identity and other tools may report too, only the table's nodes
+    of another namespace (another run) are foreign."""
+    if topic == t.DIAGNOSTICS:  # every node reports there; other tools may too
+        return [e for e in endpoints if e.namespace != own_namespace and e.name in _TABLE_NAMES]
     return [e for e in endpoints if e.namespace != own_namespace or not _may_publish(topic, e.name)]
 
 

@@ -18,15 +18,20 @@ node must do; the node only converts messages and publishes what it is told.
   since it arrived) is stale: zero torque. A torque stamped before the one applied is
   refused.
 
-Non-finite torques are refused in both modes. With ``actuators.max_torque_nm`` the body
-gets the torque clipped per axis, as a real plant's wheels saturate, and the applied
-torque reports what it got. The run ends (exit code 0) after ``n_steps`` steps.
+In both modes a torque is judged by the step it answers: its stamp must be one of the
+last :data:`ANSWERABLE_STATES` states this simulator published, so a torque stamped
+ahead (a stray message, a day in the future) is refused and counted and can never make
+the real answers look old. Torques that are non-finite or beyond the plausible bound
+(:func:`attitude_core.plausibility.torque_bound_nm`: ``actuators.max_torque_nm`` when
+set) are refused, never integrated; should the state still become non-finite, the
+simulator stops (exit 1) rather than publish it. The run ends (exit code 0) after
+``n_steps`` steps.
 """
 
 from __future__ import annotations
 
 import enum
-import math
+from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -36,6 +41,7 @@ import numpy.typing as npt
 from .actuators import clip_to_bound
 from .dynamics import RigidBody
 from .node_parameters import LOCKSTEP, TIME_MODES
+from .plausibility import DEFAULT_MAX_TORQUE_NM, implausible_torque, torque_bound_nm
 from .scenario import Scenario
 from .topics import BODY_FRAME
 
@@ -43,6 +49,8 @@ __all__ = ["Action", "StepperConfig", "StateOut", "Decision", "SimStepper", "SET
 
 SETTLE_S = 0.2
 """Wall time the graph must stay connected before the first step, s."""
+ANSWERABLE_STATES = 100
+"""A torque must answer one of the last this many published states (10 s at 0.1 s)."""
 
 Vector = npt.NDArray[np.float64]
 
@@ -78,6 +86,7 @@ class StepperConfig:
     torque_stale_s: float = 0.5
     startup_timeout_s: float = 60.0
     max_torque_nm: tuple[float, float, float] | None = None  # the plant's bound, per axis
+    plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3
 
     def __post_init__(self) -> None:
         if self.time_mode not in TIME_MODES:
@@ -90,10 +99,12 @@ class StepperConfig:
         dt_s: float,
         n_steps: int,
         max_torque_nm: tuple[float, float, float] | None = None,
+        plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3,
     ) -> StepperConfig:
         """From the simulator node's parameter values (dotted keys)."""
         return cls(
             max_torque_nm=max_torque_nm,
+            plausible_torque_nm=plausible_torque_nm,
             dt_s=dt_s,
             n_steps=n_steps,
             time_mode=values["time_mode"],
@@ -149,6 +160,7 @@ class SimStepper:
         self.torque: Vector = np.zeros(3)
         self.waiting_stamp: int | None = None  # lockstep: the state awaiting its torque
         self.state_stamp: int | None = None  # stamp of the state last published
+        self.published: deque[int] = deque(maxlen=ANSWERABLE_STATES)  # stamps a torque answers
         self.sent_at = self.first_sent_at = 0.0
         self.resends = self.timeouts = self.rejected = 0
         self.saturated_steps = 0  # steps whose torque the plant's bound clipped
@@ -168,7 +180,11 @@ class SimStepper:
     ) -> SimStepper:
         """The stepper of a scenario's body, with the simulator node's parameter values."""
         config = StepperConfig.from_parameters(
-            parameters, scenario.dt_s, scenario.n_steps, scenario.actuators.max_torque_nm
+            parameters,
+            scenario.dt_s,
+            scenario.n_steps,
+            scenario.actuators.max_torque_nm,
+            torque_bound_nm(scenario),
         )
         body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
         return cls(config, body, created)
@@ -213,10 +229,16 @@ class SimStepper:
         u = np.asarray(torque, dtype=float)
         if frame_id != BODY_FRAME:
             return self._reject(f"frame_id {frame_id!r}, expected {BODY_FRAME!r}")
-        if not all(math.isfinite(x) for x in u):
-            return self._reject(f"torque has a non-finite element {u.tolist()}")
-        if self.done:
+        reason = implausible_torque(u.tolist(), self.cfg.plausible_torque_nm)
+        if reason:
+            return self._reject(reason)
+        if self.done or self.started_at is None:
             return Decision(Action.IGNORE)
+        if stamp_ns not in self.published:  # the step it answers decides, not its stamp
+            return self._reject(
+                f"stamp {stamp_ns} ns answers no state this simulator published "
+                f"(the last is {self.state_stamp} ns)"
+            )
         if not self.lockstep:
             if stamp_ns < self.torque_stamp:
                 return self._reject(
@@ -281,6 +303,8 @@ class SimStepper:
             decision.applied_stamp_ns = applied_stamp
             return decision
         self.body.step(applied, self.cfg.dt_s)
+        if not self._finite_state():
+            return self._diverged()
         self.k += 1
         return Decision(
             action,
@@ -309,6 +333,8 @@ class SimStepper:
         if self.k > 0:
             applied, applied_stamp = self._bounded(self.torque), self.state_stamp
             self.body.step(applied, self.cfg.dt_s)
+            if not self._finite_state():
+                return self._diverged()
         state = self._state(now, clock_ns)
         self.k += 1
         return Decision(
@@ -320,6 +346,8 @@ class SimStepper:
     def _state(self, now: float, stamp_ns: int) -> StateOut:
         clock_ns = self.k * self.dt_ns if self.lockstep else None
         self.state_stamp = stamp_ns
+        if not self.published or self.published[-1] != stamp_ns:
+            self.published.append(stamp_ns)
         if self.lockstep:
             self.waiting_stamp = stamp_ns
         self.sent_at = self.first_sent_at = now
@@ -333,6 +361,15 @@ class SimStepper:
         applied, saturated = clip_to_bound(torque, self.cfg.max_torque_nm)
         self.saturated_steps += int(saturated)
         return np.array(applied, dtype=float)
+
+    def _finite_state(self) -> bool:
+        return bool(np.isfinite(self.body.sigma_bn).all() and np.isfinite(self.body.omega_b).all())
+
+    def _diverged(self) -> Decision:
+        """The state is no longer finite: stop, never publish it."""
+        self._finish(1)
+        text = f"state became non-finite at step {self.k}: stopping (nothing more is published)"
+        return Decision(Action.FAIL, exit_code=1, logs=[("error", text)])
 
     def _reject(self, reason: str) -> Decision:
         self.rejected += 1

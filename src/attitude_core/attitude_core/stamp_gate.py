@@ -37,6 +37,7 @@ __all__ = [
     "Verdict",
     "StampGate",
     "stamp_fields_reason",
+    "timelines",
 ]
 
 NS = 1_000_000_000
@@ -70,6 +71,16 @@ class Verdict:
 
 _REPEAT = Verdict(False, repeat=True)
 _NEW = Verdict(True)
+
+
+def timelines(stamp_ns: int, wall_ns: int, sim_time_s: float) -> tuple[Timeline, ...]:
+    """The timelines a (well-formed) stamp received at ``wall_ns`` can be on."""
+    fits = []
+    if stamp_ns <= (sim_time_s + TIMELINE_SLACK_S) * NS:
+        fits.append(Timeline.SIMULATED)
+    if wall_ns - MAX_LAG_S * NS <= stamp_ns <= wall_ns + MAX_LEAD_S * NS:
+        fits.append(Timeline.WALL)
+    return tuple(fits)
 
 
 def stamp_fields_reason(sec: int, nanosec: int) -> str | None:
@@ -140,12 +151,7 @@ class StampGate:
         self._suspects.clear()
 
     def _timelines(self, stamp: int, wall_ns: int) -> tuple[Timeline, ...]:
-        fits = []
-        if stamp <= (self.sim_time_s + TIMELINE_SLACK_S) * NS:
-            fits.append(Timeline.SIMULATED)
-        if wall_ns - MAX_LAG_S * NS <= stamp <= wall_ns + MAX_LEAD_S * NS:
-            fits.append(Timeline.WALL)
-        return tuple(fits)
+        return timelines(stamp, wall_ns, self.sim_time_s)
 
     def _refuse(self, reason: str, stamp: int | None) -> Verdict:
         """Count a refusal; re-anchor on a consistent stream of refused stamps."""

@@ -13,7 +13,7 @@ topic                               type                             publisher
 ``/planner/target_rate``            geometry_msgs/msg/Vector3Stamped planner
 ``/planner/status``                 std_msgs/msg/String              planner (latched)
 ``/planner/keep_out_margin_deg``    std_msgs/msg/Float64             planner
-``/diagnostics``                    diagnostic_msgs/msg/DiagnosticArray  planner
+``/diagnostics``                    diagnostic_msgs/msg/DiagnosticArray  planner; every node
 ``/controller/torque``              geometry_msgs/msg/WrenchStamped  controller
 ``/spacecraft/applied_torque``      geometry_msgs/msg/WrenchStamped  simulator
 ==================================  ===============================  ==========================

@@ -40,13 +40,14 @@ from std_msgs.msg import Float64, String
 from attitude_core import diagnostics, node_graph
 from attitude_core.fepf import FepfPlanner
 from attitude_core.guidance import Guidance, GuidanceOutput
+from attitude_core.plausibility import implausible_rate
+from attitude_core.stamp_gate import StampGate
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import NS_PER_S
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     bad_frame,
     bad_quaternion,
-    bad_vector,
     mrp_from_quaternion,
     reject,
     set_vector3,
@@ -54,6 +55,7 @@ from attitude_ros.convert import (
     vector3,
 )
 from attitude_ros.params import declare_scenario_node
+from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
 
 _PENDING_MAX = 64  # stamps kept while waiting for the other half of the state
@@ -75,7 +77,16 @@ class FepfPlannerNode(Node):
         self.first_stamp_ns = 0
         self.last_stamp_ns: int | None = None
         self.pending: dict[int, list] = {}  # stamp -> [sigma_BN, omega_B] while pairing
-        self.rejected = 0
+        self.gate = StampGate(self.scenario.sim_time_s)
+        self.bad_values = 0  # refused for their content (frame, quaternion, rate)
+        self.done, self.exit_code = False, 0
+        self.guard = RunGuard(
+            self,
+            node_graph.PLANNER,
+            self.scenario,
+            self.stop,
+            stamp_ns=lambda: self.last_stamp_ns or 0,
+        )
         self.status: PlannerStatus | None = None
         self.derating = 1.0
         pub = self.create_publisher
@@ -107,18 +118,21 @@ class FepfPlannerNode(Node):
 
     def callback(self, slot: int, name: str):
         def on_message(msg) -> None:
-            stamp = stamp_ns(msg.header.stamp)
-            if self.last_stamp_ns is not None and stamp <= self.last_stamp_ns:
-                if stamp == self.last_stamp_ns:
-                    if slot == 0:
-                        self.publish()  # lockstep re-send: same state, same answer
-                else:
-                    reject(
-                        self,
-                        name,
-                        f"stamp {stamp} ns is older than the last state {self.last_stamp_ns} ns",
-                    )
+            if not self.guard.admit(name):
                 return
+            verdict = self.gate.screen(
+                msg.header.stamp.sec, msg.header.stamp.nanosec, time.time_ns()
+            )
+            if verdict.repeat:
+                if slot == 0:
+                    self.publish()  # lockstep re-send: same state, same answer
+                return
+            if not verdict.accept:
+                reject(self, name, verdict.reason, count=self.rejected)
+                return
+            if verdict.reason:  # accepted, with a note (the gate re-anchored)
+                self.get_logger().warning(f"{name}: {verdict.reason}")
+            stamp = stamp_ns(msg.header.stamp)
             reason = bad_frame(msg, name)
             value = None
             if reason is None and slot == 0:
@@ -127,13 +141,14 @@ class FepfPlannerNode(Node):
                     value = mrp_from_quaternion(msg.quaternion)
             elif reason is None:
                 value = vector3(msg.vector)
-                reason = bad_vector(value, "angular velocity")
+                reason = implausible_rate(value)
             if reason:
                 reject(self, name, reason)
                 return
             state = self.pending.setdefault(stamp, [None, None])
             state[slot] = value
             if state[0] is not None and state[1] is not None:
+                self.gate.take(stamp, time.time_ns())
                 self.answer(stamp, msg.header.stamp, state[0], state[1])
             elif len(self.pending) > _PENDING_MAX:
                 del self.pending[min(self.pending)]
@@ -186,6 +201,19 @@ class FepfPlannerNode(Node):
             self.status = out.status
             self.pub_status.publish(String(data=out.status.value))
             self.get_logger().info(f"status {out.status} at stamp {stamp / 1e9:.3f} s")
+
+    @property
+    def rejected(self) -> int:
+        """Refused input messages: implausible stamps and bad values."""
+        return self.gate.rejected + self.bad_values
+
+    @rejected.setter
+    def rejected(self, total: int) -> None:  # convert.reject counts through this
+        self.bad_values = total - self.gate.rejected
+
+    def stop(self, code: int, reason: str) -> None:
+        """The run guard's verdict: stop answering, exit with ``code``."""
+        self.done, self.exit_code = True, code
 
     def close(self) -> None:
         """On every way out: stop the route thread (a route in progress is dropped)."""

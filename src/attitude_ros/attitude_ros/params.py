@@ -15,7 +15,6 @@ so they resolve as ``load_scenario`` resolves them).
 
 from __future__ import annotations
 
-import difflib
 import os
 from typing import Any
 
@@ -25,11 +24,11 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from attitude_core.node_parameters import NodeParameters
+from attitude_core.param_overrides import refuse_unknown
 from attitude_core.parameters import NodeParameterError, Param, ParameterError, values_from
 from attitude_core.scenario import (
     Scenario,
     ScenarioError,
-    is_ros_builtin,
     parse_scenario,
     scenario_keys,
 )
@@ -116,7 +115,7 @@ def declare_node_parameters(
             given[row.key] = value
     own = values_from(table.own, given, source)  # rclpy checked type and range; rows the rest
     if table.scenario is None:
-        _refuse_unknown(undeclared_parameters(node), table, source)
+        refuse_unknown(undeclared_parameters(node), table, source)
         return own, None
 
     flat: dict[str, Any] = {}
@@ -167,19 +166,3 @@ def declare_scenario_node(node: Node, table: NodeParameters) -> tuple[dict[str, 
     if scenario is None:
         raise TypeError("declare_scenario_node: the table reads no scenario")
     return own, scenario
-
-
-def _refuse_unknown(undeclared: dict[str, Any], table: NodeParameters, source: str) -> None:
-    """A node that takes no scenario refuses a parameter that is neither its own, nor a
-    scenario key (a shared ``/**`` parameters file may be given to it), nor one rclpy
-    declares by itself: a typo must not be ignored."""
-    own = [row.key for row in table.own]
-    scenario = {row.key for row in scenario_keys()}
-    for name in undeclared:
-        if name in scenario or is_ros_builtin(name):
-            continue
-        if name.split(".", 1)[0] in GROUPS:
-            continue
-        close = difflib.get_close_matches(name, own, n=1, cutoff=0.6)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise NodeParameterError(source, name, "unknown parameter" + hint)

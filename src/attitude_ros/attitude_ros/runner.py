@@ -5,6 +5,12 @@ the default executor, but its ``spin()`` does not return on SIGINT/SIGTERM; the 
 therefore spins once at a time. SIGINT and SIGTERM only set a flag that the loop
 checks (rclpy's own handlers would tear the context down under a running callback);
 the node is then closed (a recorder finishes its bag) and rclpy shut down in order.
+
+A node started by ``attitude-run`` also stops when attitude-run dies: the kernel sends
+it SIGTERM (``attitude_tools.child_process``), and, as a second line (e.g. with a real
+``ros2 run`` in between, or off Linux), a parent watchdog here checks every
+:data:`OWNER_CHECK_S` that the process named in
+:data:`~attitude_core.process_identity.OWNER_ENV` is still alive.
 """
 
 from __future__ import annotations
@@ -22,10 +28,39 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import ok as rclpy_ok  # rclpy.ok, where it is defined
 
+from attitude_core.exit_codes import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK  # noqa: F401
 from attitude_core.parameters import ParameterError
+from attitude_core.process_identity import OWNER_ENV, ProcessIdentity
 from attitude_core.scenario import ScenarioError
 
-EXIT_OK, EXIT_FAILURE, EXIT_BAD_INPUT = 0, 1, 2
+OWNER_CHECK_S = 0.5
+
+
+class OwnerWatchdog:
+    """Asks every :data:`OWNER_CHECK_S` whether the process in ``OWNER_ENV`` is alive."""
+
+    def __init__(self) -> None:
+        text = os.environ.get(OWNER_ENV, "")
+        try:
+            self.owner = ProcessIdentity.decode(text) if text else None
+        except ValueError:
+            print(f"warning: {OWNER_ENV}={text!r} ignored", file=sys.stderr, flush=True)
+            self.owner = None
+        self.next_check = time.monotonic() + OWNER_CHECK_S
+
+    def owner_gone(self) -> bool:
+        if self.owner is None or time.monotonic() < self.next_check:
+            return False
+        self.next_check = time.monotonic() + OWNER_CHECK_S
+        if self.owner.alive():
+            return False
+        print(
+            f"[{os.path.basename(sys.argv[0])}] the process that started this node "
+            f"(pid {self.owner.pid}) is gone: shutting down",
+            file=sys.stderr,
+            flush=True,
+        )
+        return True
 
 
 def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
@@ -59,8 +94,11 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
 
         executor = EventsExecutor()
         executor.add_node(node)
+        watchdog = OwnerWatchdog()
         while not stop and rclpy_ok() and not getattr(node, "done", False):
             executor.spin_once(timeout_sec=0.1)
+            if watchdog.owner_gone():
+                stop.append(signal.SIGTERM)
         drained = getattr(node, "drained", None)
         if stop and drained is not None:  # take what is already queued, for up to 1.5 s
             deadline = time.monotonic() + 1.5

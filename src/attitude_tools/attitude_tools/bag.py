@@ -8,22 +8,30 @@ mcap_ros2 read it (tested); ``ros2 bag info/play`` should, by construction from
 rosbag2's Jazzy sources (no rosbag2 install to test against here).
 
 Crash safety: ``metadata.yaml`` is replaced atomically, a provisional one (zero
-counts) exists from the start, and every finished MCAP chunk is flushed and synced
-to disk; ``recover_messages`` reads the complete chunks of a file whose writer
-died before ``close``.
+counts) exists from the start; schemas and channels are written to the file (outside
+chunks, as well as in the first chunk) as soon as a topic is added; the chunk in
+progress is finished, flushed and synced every ``flush_interval_s`` of wall time
+(0.25 s by default) when it holds messages, so a writer killed at any moment loses at
+most that much plus one fsync. ``recover_messages`` reads the complete chunks of a
+file whose writer died before ``close``; ``attitude_tools.bag_recovery`` finishes such
+a bag. A reserve file (``.reserve``, ``reserve_bytes``) holds back disk space that is
+released to finish the file on close or after a failed write (a full disk), so what
+was recorded can still be finished.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import heapq
 import os
 import threading
 import time
 from collections.abc import Iterator
-from typing import Any, NamedTuple, cast
+from typing import Any, NamedTuple
 
 import yaml
+from mcap.data_stream import RecordBuilder
 from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
@@ -35,6 +43,7 @@ from . import msgdefs
 __all__ = [
     "BAG_FORMAT_VERSION",
     "BagMessage",
+    "BagWriteError",
     "BagWriter",
     "bag_info",
     "qos_profile_yaml",
@@ -48,6 +57,7 @@ BAG_FORMAT_VERSION = 9
 
 ROS_DISTRO = "jazzy"
 METADATA_FILE = "metadata.yaml"
+RESERVE_FILE = ".reserve"
 MCAP_MAGIC = b"\x89MCAP0\r\n"
 TIME_MAX_NS = 2**63 - 1
 """rosbag2's ``starting_time`` of a bag without messages (``nanoseconds::max()``)."""
@@ -140,6 +150,17 @@ def _parse_qos(text: str) -> list[dict]:
     return profiles
 
 
+class BagWriteError(OSError):
+    """A write to the bag failed (e.g. a full disk); the bag is left for recovery.
+
+    ``errno``/``strerror``/``filename`` are those of the underlying OSError.
+    """
+
+    @property
+    def disk_full(self) -> bool:
+        return self.errno in (errno.ENOSPC, errno.EDQUOT)
+
+
 class _Topic(NamedTuple):
     name: str
     type_name: str
@@ -153,12 +174,35 @@ class BagWriter:
 
     ``bag_dir`` must not exist or be an empty directory (FileExistsError otherwise).
     ``chunk_size`` is the MCAP chunk size in bytes; ``compression`` the chunk
-    compression, ``'none'``, ``'lz4'`` or ``'zstd'``. Thread-safe; a context manager.
+    compression, ``'none'``, ``'lz4'`` or ``'zstd'``. ``flush_interval_s``: wall time
+    after which a background thread finishes the chunk in progress (if it holds
+    messages) and syncs the file (None: only full chunks are written).
+    ``reserve_bytes``: disk space held back in ``.reserve`` until close or a failed
+    write (0: none). A failed write (OSError) raises :class:`BagWriteError`, then so
+    does every later write; ``close`` then leaves the file unfinished for recovery.
+    ``custom_data``: the ``custom_data`` mapping of metadata.yaml (str to str).
+    Thread-safe; a context manager.
     """
 
-    def __init__(self, bag_dir: str, *, chunk_size: int = 256 * 1024, compression: str = "none"):
+    def __init__(
+        self,
+        bag_dir: str,
+        *,
+        chunk_size: int = 256 * 1024,
+        compression: str = "none",
+        flush_interval_s: float | None = 0.25,
+        reserve_bytes: int = 1 << 20,
+    ):
         if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size <= 0:
             raise ValueError(f"chunk_size must be a positive int, not {chunk_size!r}")
+        if flush_interval_s is not None and not flush_interval_s > 0:
+            raise ValueError(f"flush_interval_s must be > 0 or None, not {flush_interval_s!r}")
+        if (
+            isinstance(reserve_bytes, bool)
+            or not isinstance(reserve_bytes, int)
+            or reserve_bytes < 0
+        ):
+            raise ValueError(f"reserve_bytes must be an int >= 0, not {reserve_bytes!r}")
         if compression not in _COMPRESSION:
             raise ValueError(
                 f"compression must be one of {sorted(_COMPRESSION)}, not {compression!r}"
@@ -177,8 +221,19 @@ class BagWriter:
         self._start_ns: int | None = None
         self._end_ns: int | None = None
         self._closed = False
-        self._file = open(os.path.join(bag_dir, self.file_name), "xb")  # noqa: SIM115 - closed by close()
+        self._error: BagWriteError | None = None
+        self._unflushed = 0  # messages in the chunk in progress
+        self.custom_data: dict[str, str] = {}
+        self.path = os.path.join(bag_dir, self.file_name)
+        self._reserve = os.path.join(bag_dir, RESERVE_FILE)
+        self._file = open(self.path, "xb")  # noqa: SIM115 - closed by close()
         try:
+            if reserve_bytes:
+                fd = os.open(self._reserve, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+                try:
+                    os.posix_fallocate(fd, 0, reserve_bytes)
+                finally:
+                    os.close(fd)
             self._mcap = Writer(
                 self._file,
                 chunk_size=chunk_size,
@@ -189,7 +244,18 @@ class BagWriter:
             self._write_metadata_yaml()
         except BaseException:
             self._file.close()
+            self._release_reserve()
             raise
+        self._stop_flusher = threading.Event()
+        self._flusher: threading.Thread | None = None
+        if flush_interval_s is not None:
+            self._flusher = threading.Thread(
+                target=self._flush_loop,
+                args=(float(flush_interval_s),),
+                name=f"bag flusher {self.file_name}",
+                daemon=True,
+            )
+            self._flusher.start()
 
     # -- writing -------------------------------------------------------------------
 
@@ -216,19 +282,32 @@ class BagWriter:
                         f"topic {name!r} already added as {known.type_name} with other QoS"
                     )
                 return
+            # The Writer puts schemas and channels into the next chunk only; they are
+            # also written at the top level now (identical records, as MCAP allows), so
+            # a bag killed before its first chunk still names its topics.
+            records = RecordBuilder()
             if type_name not in self._schema_ids:
-                definition = msgdefs.message_definition(type_name)
-                self._schema_ids[type_name] = self._guarded(
-                    self._mcap.register_schema, type_name, "ros2msg", definition.encode()
-                )
+                data = msgdefs.message_definition(type_name).encode()
+                schema_id = self._guarded(self._mcap.register_schema, type_name, "ros2msg", data)
+                self._schema_ids[type_name] = schema_id
+                Schema(id=schema_id, name=type_name, encoding="ros2msg", data=data).write(records)
             type_hash = msgdefs.type_description_hash(type_name)
+            metadata = {"offered_qos_profiles": qos_text, "topic_type_hash": type_hash}
             channel_id = self._guarded(
                 self._mcap.register_channel,
                 topic=name,
                 message_encoding="cdr",
                 schema_id=self._schema_ids[type_name],
-                metadata={"offered_qos_profiles": qos_text, "topic_type_hash": type_hash},
+                metadata=metadata,
             )
+            Channel(
+                id=channel_id,
+                topic=name,
+                message_encoding="cdr",
+                schema_id=self._schema_ids[type_name],
+                metadata=metadata,
+            ).write(records)
+            self._guarded(self._file.write, records.end())
             self._topics[name] = _Topic(name, type_name, profiles, type_hash, channel_id)
             self._counts[name] = 0
             self._write_metadata_yaml()
@@ -263,6 +342,7 @@ class BagWriter:
                 sequence=0,
             )
             self._counts[topic] += 1
+            self._unflushed += 1
             if self._start_ns is None:
                 self._start_ns = self._end_ns = log_time_ns
             else:
@@ -291,23 +371,52 @@ class BagWriter:
                 data=bytes(data),
             )
 
+    def flush(self) -> None:
+        """Finish the chunk in progress (if it holds messages) and sync the file to disk."""
+        with self._lock:
+            self._check_open()
+            if not self._unflushed:
+                return
+            # Writer.flush (public in mcap >= 1.2) finishes the open chunk early.
+            self._guarded(self._mcap.flush)
+            self._unflushed = 0
+
     def close(self) -> None:
-        """Finish the MCAP (summary, footer) and write the final metadata.yaml; idempotent."""
+        """Finish the MCAP (summary, footer) and write the final metadata.yaml; idempotent.
+
+        After a failed write the file is left unfinished (for
+        ``bag_recovery.recover_bag``) and the provisional metadata.yaml is kept.
+        """
+        self._stop_flusher.set()
+        if self._flusher is not None and self._flusher is not threading.current_thread():
+            self._flusher.join()
         with self._lock:
             if self._closed:
                 return
             self._closed = True
+            self._release_reserve()  # the room to finish the file on a full disk
+            if self._error is not None:
+                with contextlib.suppress(OSError):
+                    self._file.close()  # may retry the failed write: nothing more to keep
+                return
             try:
                 info = self._metadata()
+                # The last chunk first: the rosbag2 record then sits right before the
+                # data end, where bag_recovery expects it (nothing after it to lose).
+                self._mcap.flush()
                 self._mcap.add_metadata(
                     "rosbag2", {"serialized_metadata": yaml.safe_dump(info, sort_keys=False)}
                 )
                 self._mcap.finish()
                 self._file.flush()
                 os.fsync(self._file.fileno())
-            finally:
-                self._file.close()
-                self._write_metadata_yaml()
+            except OSError as err:
+                self._error = _write_error(err, self.path)
+                with contextlib.suppress(OSError):
+                    self._file.close()
+                raise self._error from err
+            self._file.close()
+            self._write_metadata_yaml()
 
     def __enter__(self) -> BagWriter:
         return self
@@ -325,84 +434,167 @@ class BagWriter:
     def closed(self) -> bool:
         return self._closed
 
+    @property
+    def error(self) -> BagWriteError | None:
+        """The write failure that stopped this bag, if any."""
+        return self._error
+
+    def update_custom_data(self, **values: str) -> None:
+        """Set ``custom_data`` entries and rewrite the provisional metadata.yaml."""
+        with self._lock:
+            self._check_open()
+            self.custom_data.update({k: str(v) for k, v in values.items()})
+            try:
+                self._write_metadata_yaml()
+            except OSError as err:
+                raise self._fail(err) from err
+
     # -- internals -----------------------------------------------------------------
 
     def _check_open(self) -> None:
         if self._closed:
             raise ValueError(f"bag {self.bag_dir!r} is closed")
+        if self._error is not None:
+            raise self._error
 
     def _guarded(self, fn, *args, **kwargs):
-        """Call an MCAP writer method; if it wrote a chunk, push the chunk to the disk."""
-        before = self._file.tell()
-        result = fn(*args, **kwargs)
-        if self._file.tell() != before:
-            self._sync_file()
+        """Call an MCAP writer method; if it wrote a chunk, push the chunk to the disk.
+
+        An OSError fails the bag (BagWriteError, now and on every later write)."""
+        try:
+            before = self._file.tell()
+            result = fn(*args, **kwargs)
+            if self._file.tell() != before:
+                self._sync_file()
+        except OSError as err:
+            raise self._fail(err) from err
         return result
+
+    def _fail(self, err: OSError) -> BagWriteError:
+        """Record the first write failure; release the reserve so the bag can be finished."""
+        if self._error is None:
+            self._error = _write_error(err, self.path)
+            self._release_reserve()
+            self.custom_data["write_error"] = str(self._error)
+            with contextlib.suppress(OSError):  # keep the provisional one if even this fails
+                self._write_metadata_yaml()
+        return self._error
+
+    def _flush_loop(self, interval_s: float) -> None:
+        """Background thread: flush every ``interval_s`` until closed or failed."""
+        while not self._stop_flusher.wait(interval_s):
+            try:
+                self.flush()
+            except (ValueError, OSError):  # closed, or failed: write() reports it
+                return
+
+    def _release_reserve(self) -> None:
+        with contextlib.suppress(FileNotFoundError):
+            os.remove(self._reserve)
 
     def _sync_file(self) -> None:
         self._file.flush()
         os.fsync(self._file.fileno())
 
     def _metadata(self) -> dict:
-        """``rosbag2_bagfile_information`` as Jazzy's rosbag2 writes it (key order included)."""
-        count = self.message_count
-        start = TIME_MAX_NS if self._start_ns is None else self._start_ns
-        # _end_ns is set together with _start_ns
-        duration = 0 if self._start_ns is None else cast(int, self._end_ns) - self._start_ns
-        return {
-            "version": BAG_FORMAT_VERSION,
-            "storage_identifier": "mcap",
-            "duration": {"nanoseconds": duration},
-            "starting_time": {"nanoseconds_since_epoch": start},
-            "message_count": count,
-            "topics_with_message_count": [
-                {
-                    "topic_metadata": {
-                        "name": t.name,
-                        "type": t.type_name,
-                        "serialization_format": "cdr",
-                        "offered_qos_profiles": t.qos_profiles,
-                        "type_description_hash": t.type_hash,
-                    },
-                    "message_count": self._counts[t.name],
-                }
-                for t in self._topics.values()
-            ],
-            "compression_format": "",
-            "compression_mode": "",
-            "relative_file_paths": [self.file_name],
-            "files": [
-                {
-                    "path": self.file_name,
-                    "starting_time": {"nanoseconds_since_epoch": start},
-                    "duration": {"nanoseconds": duration},
-                    "message_count": count,
-                }
-            ],
-            "custom_data": None,
-            "ros_distro": ROS_DISTRO,
-        }
+        """``rosbag2_bagfile_information`` of this bag so far."""
+        with self._lock:
+            return bagfile_information(
+                self.file_name,
+                [(t.name, t.type_name, t.qos_profiles, t.type_hash) for t in self._topics.values()],
+                dict(self._counts),
+                self._start_ns,
+                self._end_ns,
+                self.custom_data,
+            )
 
     def _write_metadata_yaml(self) -> None:
-        """Replace metadata.yaml atomically (temp file, fsync, os.replace)."""
-        text = yaml.safe_dump(
-            {"rosbag2_bagfile_information": self._metadata()},
-            sort_keys=False,
-            default_flow_style=False,
-        )
-        path = os.path.join(self.bag_dir, METADATA_FILE)
-        tmp = os.path.join(self.bag_dir, f".{METADATA_FILE}.tmp")
+        write_metadata_yaml(self.bag_dir, self._metadata())
+
+
+def bagfile_information(
+    file_name: str,
+    topics: list[tuple[str, str, list, str]],
+    counts: dict[str, int],
+    start_ns: int | None,
+    end_ns: int | None,
+    custom_data: dict[str, str] | None = None,
+) -> dict:
+    """``rosbag2_bagfile_information`` as Jazzy's rosbag2 writes it (key order included).
+
+    ``topics``: (name, type, offered QoS profiles as a list, type hash) in bag order;
+    ``counts``: messages per topic; ``start_ns``/``end_ns``: first and last log time
+    (None without messages).
+    """
+    count = sum(counts.values())
+    start = TIME_MAX_NS if start_ns is None else start_ns
+    duration = 0 if start_ns is None or end_ns is None else end_ns - start_ns
+    return {
+        "version": BAG_FORMAT_VERSION,
+        "storage_identifier": "mcap",
+        "duration": {"nanoseconds": duration},
+        "starting_time": {"nanoseconds_since_epoch": start},
+        "message_count": count,
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": name,
+                    "type": type_name,
+                    "serialization_format": "cdr",
+                    "offered_qos_profiles": qos,
+                    "type_description_hash": type_hash,
+                },
+                "message_count": counts.get(name, 0),
+            }
+            for name, type_name, qos, type_hash in topics
+        ],
+        "compression_format": "",
+        "compression_mode": "",
+        "relative_file_paths": [file_name],
+        "files": [
+            {
+                "path": file_name,
+                "starting_time": {"nanoseconds_since_epoch": start},
+                "duration": {"nanoseconds": duration},
+                "message_count": count,
+            }
+        ],
+        "custom_data": dict(custom_data) if custom_data else None,
+        "ros_distro": ROS_DISTRO,
+    }
+
+
+def write_metadata_yaml(bag_dir: str, info: dict) -> None:
+    """Replace ``bag_dir``/metadata.yaml atomically (temp file, fsync, os.replace)."""
+    text = yaml.safe_dump(
+        {"rosbag2_bagfile_information": info},
+        sort_keys=False,
+        default_flow_style=False,
+    )
+    path = os.path.join(bag_dir, METADATA_FILE)
+    tmp = os.path.join(bag_dir, f".{METADATA_FILE}.tmp")
+    try:
         with open(tmp, "w", encoding="utf-8") as f:
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, path)
+    except BaseException:
         with contextlib.suppress(OSError):
-            fd = os.open(self.bag_dir, os.O_RDONLY)
-            try:
-                os.fsync(fd)
-            finally:
-                os.close(fd)
+            os.remove(tmp)
+        raise
+    with contextlib.suppress(OSError):
+        fd = os.open(bag_dir, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _write_error(err: OSError, path: str) -> BagWriteError:
+    """A BagWriteError with ``err``'s errno and text, naming ``path`` when it names none."""
+    code = err.errno if err.errno is not None else errno.EIO
+    return BagWriteError(code, err.strerror or str(err), err.filename or path)
 
 
 def _check_time(name: str, value: int) -> int:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from attitude_core.diagnostics import PlannerDiagnostics
+from attitude_core.diagnostics import STATUS_NAME, PlannerDiagnostics
 from attitude_core.mrp import mrp_from_quat
 from attitude_core.scenario import Scenario, loads_scenario
 from attitude_core.status import PlannerStatus
@@ -65,6 +65,10 @@ def run_from_bag(
     wall: dict[int, int] = {}
     for m in read_bag(bag_dir, list(by_topic)):
         stamp = stamp_ns(m.msg.header.stamp)
+        if stamp != m.log_time_ns:
+            continue  # the recorder logged it elsewhere: an implausible stamp, not a step
+        if m.topic == DIAGNOSTICS and not any(st.name == STATUS_NAME for st in m.msg.status):
+            continue  # another node's diagnostics (a run identity): no step data
         by_topic[m.topic][stamp] = m.msg
         if m.topic == ATTITUDE:
             wall.setdefault(stamp, m.publish_time_ns)

@@ -9,7 +9,6 @@ stderr), 2 bad input.
 from __future__ import annotations
 
 import argparse
-import json
 import shutil
 import sys
 
@@ -21,6 +20,7 @@ from attitude_core.scenario import ScenarioError, load_scenario
 from attitude_core.trajectory import RunResult, summarize
 
 from .rundir import check_replaceable, publish, stage
+from .strict_json import dump_strict, dumps_strict
 
 __all__ = ["TIMESERIES_COLUMNS", "write_run", "main"]
 
@@ -68,8 +68,7 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
             fmt="%.10g",
         )
         with open(tmp / "summary.json", "w") as f:
-            json.dump(summary, f, indent=2)
-            f.write("\n")
+            dump_strict(summary, f, indent=2)  # NaN/inf -> null, named in non_finite
         publish(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -98,7 +97,7 @@ def main(argv=None) -> int:
         print(f"attitude-offline: error: {err}", file=sys.stderr)
         return 2
     if not args.quiet:
-        print(json.dumps(summary, indent=2))
+        print(dumps_strict(summary, indent=2))
     if summary["planner_infeasible"]:
         print(f"attitude-offline: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
         return 1

@@ -12,13 +12,15 @@ SIGKILL after a grace period), rebuilds the run from the bag alone and writes
 or on a failure, 2 bad input.
 
 The run is written to a temporary sibling of ``DIR`` that replaces ``DIR`` at the end,
-also after a failure (what was recorded is kept); a bad scenario writes nothing.
+also after a failure (what was recorded is kept); a bad scenario, a bad ``--param`` or
+an unwritable ``DIR`` writes nothing (exit 2). The nodes die with attitude-run, even on
+SIGKILL (:mod:`.child_process`); a staging directory left by a killed run is recovered
+or cleaned by the next run into ``DIR`` (:mod:`.stale_run`).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shutil
 import signal
@@ -29,14 +31,24 @@ from collections.abc import Callable
 from pathlib import Path
 
 from attitude_core import node_graph as graph
+from attitude_core import run_identity
 from attitude_core.node_graph import NodeSpec
+from attitude_core.parameters import ParameterError
+from attitude_core.process_identity import OWNER_ENV, ProcessIdentity
 from attitude_core.recording import EXIT_NO_PLANT
-from attitude_core.scenario import ScenarioError, load_scenario
+from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import ATTITUDE
 
+from .bag_recovery import NotABagError, describe, recover_bag, run_failure, run_fields
 from .bag_run import run_from_bag, summarize_bag
-from .rundir import check_replaceable, publish, stage
+from .child_process import die_with_parent
+from .domain import DomainBusyError, NoFreeDomain, claim_domain
+from .guard_report import foreign_publishers_logged, guard_failure
+from .node_params import check_node_params
+from .rundir import OutputDirError, check_replaceable, publish, stage
+from .stale_run import salvage_stale_runs
+from .strict_json import dump_strict, dumps_strict
 
 ROLES = tuple(n.role for n in graph.NODES)
 PLANT_SIM, PLANT_EXTERNAL = "sim", "external"
@@ -44,10 +56,19 @@ PLANTS = (PLANT_SIM, PLANT_EXTERNAL)
 # Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
 # queues for up to 1.5 s and finishes the bag).
 NODE_GRACE_S, RECORDER_GRACE_S = 1.5, 3.0
+STAGE_PREFIX = ".tmp-run-"
+RUN_MIN_FREE_BYTES = 64 * 2**20  # free beside --out before a run starts (bags are MBs)
 
 
 class RunError(RuntimeError):
     pass
+
+
+class NodeInputError(RunError):
+    """A node exited with code 2 (bad input it detected); attitude-run exits 2 too."""
+
+
+NODE_EXIT_BAD_INPUT = 2  # attitude_ros.runner.EXIT_BAD_INPUT
 
 
 def default_workspace() -> Path:
@@ -113,15 +134,17 @@ class NodeGraph:
     def start(self, spec: NodeSpec, ros_args: list[str], name: str | None = None) -> None:
         """Start ``spec``'s executable; its log and key are ``name`` (default: its role)."""
         name = spec.role if name is None else name
+        env = {**self.env, OWNER_ENV: ProcessIdentity.current().encode()}  # parent watchdog
         with open(self.log_dir / f"{name}.log", "wb") as log:  # the child keeps its copy
             self.procs[name] = subprocess.Popen(
                 [self.ros2, "run", spec.package, spec.executable, "--ros-args", *ros_args],
-                env=self.env,
+                env=env,
                 cwd=self.cwd,
                 stdout=log,
                 stderr=subprocess.STDOUT,
                 stdin=subprocess.DEVNULL,
                 start_new_session=True,
+                preexec_fn=die_with_parent(),  # SIGTERM when we die, even by SIGKILL
             )  # we, not the terminal, decide the shutdown order
 
     def exited(self) -> dict[str, int]:
@@ -141,6 +164,12 @@ class NodeGraph:
                 p.wait()
         return {n: self.procs[n].returncode for n in names}
 
+    def error_line(self, name: str) -> str:
+        """The last line of ``name``'s log that reports an error (else its last line)."""
+        text = (self.log_dir / f"{name}.log").read_text(errors="replace").splitlines()
+        errors = [line for line in text if "error" in line.lower()]
+        return (errors or text or ["(empty log)"])[-1].strip()
+
     def tail(self, name: str, lines: int = 15) -> str:
         text = (self.log_dir / f"{name}.log").read_text(errors="replace").splitlines()
         return "\n".join(f"    {line}" for line in text[-lines:])
@@ -157,8 +186,14 @@ def run_scenario(
     node_params: dict[str, list[str]] | None = None,
     plant: str = PLANT_SIM,
     plant_timeout_s: float = 60.0,
+    namespace: str | None = None,
 ) -> tuple[dict, Path]:
     """Run one scenario through the node graph; return (summary, run directory).
+
+    Every node is started in the run's namespace (``namespace``, default a fresh
+    ``/attitude_run_<id>``; :mod:`attitude_core.run_identity`). Without ``ROS_DOMAIN_ID``
+    in the environment a free domain is reserved for the run (:mod:`.domain`); a domain
+    where nodes of another run are alive is refused (:class:`DomainBusyError`).
 
     ``node_params`` maps a node's log name (recorder, planner, controller, simulator)
     to extra ``NAME:=VALUE`` parameters for it. ``plant``: ``sim`` starts
@@ -174,17 +209,31 @@ def run_scenario(
     }
     wall0 = time.monotonic()
     scenario = load_scenario(scenario_path)
+    check_node_params(scenario_path, node_params or {}, started)  # before anything is written
     out = check_replaceable(out_dir, ("summary.json", "bag"), "run directory")
     env = ros_environment(workspace)
     ros2 = shutil.which("ros2", path=env["PATH"])
     if ros2 is None:
         raise RunError("no `ros2` command on PATH (run `bash tools/bootstrap`)")
+    namespace = namespace or run_identity.run_namespace()
+    reservation = claim_domain(env, sys.executable)  # DomainBusyError: nothing written
     if timeout_s is None:  # an external plant may run in real time in either mode
         paced = time_mode == "realtime" or plant == PLANT_EXTERNAL
         timeout_s = 120.0 + (1.5 * scenario.sim_time_s if paced else 0.0)
-    tmp = stage(out, ".tmp-run-")
-    (tmp / "logs").mkdir()
-    shutil.copyfile(scenario_path, tmp / "scenario.yaml")
+    for line in salvage_stale_runs(out, STAGE_PREFIX):  # left by a run that died
+        print(f"attitude-run: {line}", file=sys.stderr, flush=True)
+    try:
+        tmp = stage(out, STAGE_PREFIX, RUN_MIN_FREE_BYTES)  # OutputDirError: nothing written
+        try:
+            (tmp / "logs").mkdir()
+            shutil.copyfile(scenario_path, tmp / "scenario.yaml")
+        except OSError as err:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise OutputDirError(f"--out {out}: cannot write in {tmp}: {err.strerror}") from None
+    except OutputDirError:
+        if reservation is not None:
+            reservation.release()
+        raise
     params = ["--params-file", str(Path(scenario_path).resolve())]
     # In the scenario's directory: relative data paths resolve as load_scenario does.
     nodes = NodeGraph(ros2, env, tmp / "logs", Path(scenario_path).resolve().parent)
@@ -219,12 +268,22 @@ def run_scenario(
         }
         for spec in started:  # in start order
             scenario_args = params if spec.parameters.scenario is not None else []
-            nodes.start(spec, scenario_args + own_args.get(spec.role, []) + extra[spec.role])
-        log(f"attitude-run: {scenario.name}: nodes started ({time_mode}); logs in {out / 'logs'}")
+            nodes.start(
+                spec,
+                ["-r", f"__ns:={namespace}"]
+                + scenario_args
+                + own_args.get(spec.role, [])
+                + extra[spec.role],
+            )
+        log(
+            f"attitude-run: {scenario.name}: nodes started ({time_mode}) in {namespace} on "
+            f"ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}; logs in {out / 'logs'}"
+        )
         if plant == PLANT_EXTERNAL:
             log(
                 f"attitude-run: waiting up to {plant_timeout_s:g} s for an external plant on "
                 f"{ATTITUDE} (ROS_DOMAIN_ID={env.get('ROS_DOMAIN_ID', '0')}); start it with "
+                f"-r __ns:={namespace} "
                 f"--params-file {Path(scenario_path).resolve()} -p time_mode:={time_mode} "
                 f"-p lockstep.expected_subscribers:={graph.state_listeners()}"
             )
@@ -241,7 +300,9 @@ def run_scenario(
                 end_reason = "scenario time ended"
             elif exited:
                 name, code = next(iter(exited.items()))
-                end_reason = failure = f"{name} exited with code {code}"
+                end_reason = failure = guard_failure(code, nodes.log_dir / f"{name}.log") or (
+                    f"{name} exited with code {code}"
+                )
             elif time.monotonic() - wall0 > timeout_s:
                 end_reason = failure = f"timeout after {timeout_s:.0f} s"
     finally:
@@ -252,6 +313,11 @@ def run_scenario(
         shutdown_s = time.monotonic() - stop_t0
         for s, h in handlers.items():
             signal.signal(s, h)
+        if reservation is not None:
+            reservation.release()
+    foreign = foreign_publishers_logged(nodes.log_dir)
+    if foreign and not failure:  # seen by a node that does not stop on it (the recorder)
+        failure = "foreign publisher: " + "; ".join(foreign)
     wall_s = time.monotonic() - wall0
     if failure:
         for name in nodes.exited():
@@ -260,6 +326,17 @@ def run_scenario(
                     f"attitude-run: {name} (exit {nodes.procs[name].returncode}):\n"
                     + nodes.tail(name)
                 )
+    recovery, recovery_error = None, None
+    if (tmp / "bag").is_dir():  # a recorder killed or out of disk leaves the bag unfinished
+        try:
+            recovery = recover_bag(str(tmp / "bag"))
+        except (NotABagError, OSError) as err:
+            recovery_error = f"bag not recoverable: {err}"
+        if recovery is not None and recovery.recovered:
+            log(f"attitude-run: {describe(recovery)}")
+        failure = run_failure(
+            failure, recovery, recovery_error, codes.get(graph.RECORDER.role), str(tmp), str(out)
+        )
     summary = None
     if (tmp / "bag" / "metadata.yaml").exists():
         try:
@@ -280,12 +357,22 @@ def run_scenario(
                     "failure": failure,
                     "exit_codes": codes,
                     "shutdown_s": round(shutdown_s, 3),
+                    "run_namespace": namespace,
+                    "ros_domain_id": int(env["ROS_DOMAIN_ID"]),
+                    "foreign_publishers": foreign,
                 }
             )
+            summary.update(run_fields(recovery, str(tmp / "bag"), bag_run.run.t))
             with open(tmp / "summary.json", "w") as f:
-                json.dump(summary, f, indent=2)
-                f.write("\n")
+                dump_strict(summary, f, indent=2)  # NaN/inf -> null, named in non_finite
+    refused = [  # nodes that refused their input (a check attitude-run could not make)
+        f"{n} exited with code 2: {nodes.error_line(n)}"
+        for n, c in codes.items()
+        if c == NODE_EXIT_BAD_INPUT
+    ]
     publish(tmp, out)  # also after a failure: what was recorded is kept
+    if refused:
+        raise NodeInputError("; ".join(refused) + f" (logs in {out / 'logs'})")
     if summary is None:
         raise RunError(f"{failure or end_reason}; no usable bag (logs in {out / 'logs'})")
     return summary, out
@@ -348,8 +435,21 @@ def main(argv=None) -> int:
         help="with --plant external: fail when no state arrives within this wall time, s "
         "(default 60)",
     )
+    parser.add_argument(
+        "--run-namespace",
+        default=None,
+        metavar="NS",
+        help="ROS namespace of the run's nodes (default: a fresh /attitude_run_<id>); "
+        "an external plant joins the run with `-r __ns:=NS`",
+    )
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
     args = parser.parse_args(argv)
+    if args.run_namespace is not None and not run_identity.in_run(args.run_namespace):
+        prefix = "/" + run_identity.RUN_NAMESPACE_PREFIX
+        parser.error(
+            f"--run-namespace {args.run_namespace!r}: must start with {prefix!r} "
+            f"(e.g. {prefix}hil1)"
+        )
     if not 0.0 < args.plant_timeout_s <= 3600.0:
         parser.error(f"--plant-timeout-s: must be in (0, 3600], got {args.plant_timeout_s!r}")
     node_params: dict[str, list[str]] = {}
@@ -377,15 +477,23 @@ def main(argv=None) -> int:
             node_params,
             plant=args.plant,
             plant_timeout_s=args.plant_timeout_s,
+            namespace=args.run_namespace,
         )
-    except ScenarioError as err:
-        print(f"attitude-run: error: {err}", file=sys.stderr)
+    except (
+        ParameterError,
+        OutputDirError,
+        FileExistsError,
+        NodeInputError,
+        DomainBusyError,
+        NoFreeDomain,
+    ) as err:
+        print(f"attitude-run: error: {err}", file=sys.stderr)  # bad input: --param, --out
         return 2
-    except (FileExistsError, RunError) as err:
+    except RunError as err:
         print(f"attitude-run: error: {err}", file=sys.stderr)
-        return 2 if isinstance(err, FileExistsError) else 1
+        return 1
     if not args.quiet:
-        print(json.dumps(summary, indent=2))
+        print(dumps_strict(summary, indent=2))
     if summary["planner_infeasible"]:
         print(f"attitude-run: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
         return 1

@@ -24,6 +24,7 @@ from attitude_core.sim_stepper import Action, Decision, SimStepper
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
 from attitude_ros.params import declare_scenario_node
+from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
 
 LOOP_PERIOD_S = 0.02  # start-up polling and the lockstep torque-deadline check, s
@@ -51,6 +52,13 @@ class RigidBodySimNode(Node):
         self.msg_applied = WrenchStamped()
         self.msg_applied.header.frame_id = c.BODY_FRAME
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.guard = RunGuard(
+            self,
+            node_graph.SIMULATOR,
+            sc,
+            lambda code, reason: self.finish(code),
+            stamp_ns=lambda: self.stepper.state_stamp or 0,
+        )
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
             f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "
@@ -80,7 +88,10 @@ class RigidBodySimNode(Node):
         return True
 
     def on_wait_timer(self) -> None:
-        decision = self.stepper.poll_graph(time.monotonic(), self.graph_ready())
+        if self.done:
+            return
+        ready = self.graph_ready() and self.guard.peers_agree()
+        decision = self.stepper.poll_graph(time.monotonic(), ready)
         if decision.action == Action.FAIL:
             self.get_logger().error(
                 f"{decision.logs[0][1]}: {self.pub_att.get_subscription_count()} state "
@@ -99,6 +110,8 @@ class RigidBodySimNode(Node):
         self.do(self.stepper.on_timer(time.monotonic(), self.get_clock().now().nanoseconds))
 
     def on_torque(self, msg: WrenchStamped) -> None:
+        if not self.guard.admit(c.TORQUE):
+            return
         stamp, u = cv.stamp_ns(msg.header.stamp), cv.vector3(msg.wrench.torque)
         decision = self.stepper.on_torque(time.monotonic(), stamp, u, msg.header.frame_id)
         if decision.action == Action.REJECT:
@@ -126,6 +139,8 @@ class RigidBodySimNode(Node):
             self.pub_rate.publish(self.msg_rate)
         if d.action == Action.FINISH:
             self.finish(0)
+        elif d.action == Action.FAIL:
+            self.finish(d.exit_code or 1)
 
     def finish(self, code: int) -> None:
         if not self.done:

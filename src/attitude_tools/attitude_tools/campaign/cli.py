@@ -16,7 +16,6 @@ Exit codes: 0 complete, 1 a task failed, 2 bad input (SPEC, ``--out``, scheduler
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import math
 import os
@@ -27,6 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ..strict_json import dump_strict
 from .progress import Progress
 from .spec import CampaignSpec, SpecError, load_spec
 from .stats import summarize_campaign, worst_runs
@@ -115,10 +115,9 @@ def _finish(spec: CampaignSpec, out: Path, info: dict[str, Any], log) -> dict[st
         {k: row[k] for k in ("run", "variant", "outcome", "min_margin_deg", "rotation_ratio")}
         for _, row in worst.iterrows()
     ]
-    summary = _json_ready(summary)
     with open(out / "summary.json.tmp", "w") as f:
-        json.dump(summary, f, indent=2, default=lambda v: v.item())
-        f.write("\n")
+        dump_strict(summary, f, indent=2)  # NaN/inf -> null, named in non_finite
+    summary = _json_ready(summary)
     os.replace(out / "summary.json.tmp", out / "summary.json")
     from .report import write_report
 

@@ -11,13 +11,13 @@ arguments; nothing is written).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import shutil
 import sys
 import time
 
-from attitude_tools.rundir import check_replaceable, publish, stage
+from attitude_tools.rundir import OutputDirError, check_replaceable, publish, stage
+from attitude_tools.strict_json import dump_strict
 
 from .data import BagError, load_run
 
@@ -46,8 +46,7 @@ def write_report(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> str:
             ],
         }
         with open(tmp / "summary.json", "w", encoding="utf-8") as f:
-            json.dump(document, f, indent=2)
-            f.write("\n")
+            dump_strict(document, f, indent=2)  # NaN/inf -> null, named in non_finite
         page = render_html(runs, str(tmp), FIGURES)
         with open(tmp / REPORT_MARKER, "w", encoding="utf-8") as f:
             f.write(page)
@@ -111,7 +110,7 @@ def main(argv=None) -> int:
     out = args.out or os.path.join(args.runs[0], "report")
     try:
         out = write_report(runs, out, dpi=args.dpi)
-    except (FileExistsError, NotADirectoryError, PermissionError) as err:
+    except (FileExistsError, NotADirectoryError, PermissionError, OutputDirError) as err:
         print(f"attitude-report: error: {err}", file=sys.stderr)
         return 2
     if not args.quiet:

@@ -1,0 +1,197 @@
+"""A node's guard against foreign publishers and mismatched peers (see
+:mod:`attitude_core.run_identity` for the rules and why).
+
+Every node of the table creates one :class:`RunGuard`. It
+
+* audits the publishers of the topics the node takes, every :data:`AUDIT_PERIOD_S` and
+  at once when a message arrives while the topic's publisher count changed; a foreign
+  publisher is logged with its node name and counted; in a run's namespace the node then
+  stops with ``EXIT_FOREIGN_PUBLISHER`` (``admit`` refuses the topic's samples from the
+  moment it is seen);
+* publishes the node's identity (role, run namespace, scenario fingerprint, foreign
+  publishers and refused messages so far) on ``/diagnostics`` every
+  :data:`IDENTITY_PERIOD_S`;
+* compares the fingerprints of its peers of the same namespace and stops the node with
+  ``EXIT_FINGERPRINT_MISMATCH`` on a difference; :meth:`peers_agree` tells the
+  simulator's start-up gate whether every loop node present has been heard and agrees.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from typing import Any
+
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.node import Node
+
+from attitude_core import node_graph
+from attitude_core import run_identity as ri
+from attitude_core.node_graph import NodeSpec
+from attitude_core.scenario import Scenario
+from attitude_ros import contract as c
+from attitude_ros.convert import set_stamp
+
+AUDIT_PERIOD_S = 0.25
+IDENTITY_PERIOD_S = 1.0
+UNKNOWN_GRACE_S = 1.0
+"""An endpoint whose node is not known yet (discovery in progress) is judged after this."""
+_UNKNOWN = "_NODE_NAME_UNKNOWN_"
+
+Fatal = Callable[[int, str], None]
+
+
+class RunGuard:
+    def __init__(
+        self,
+        node: Node,
+        spec: NodeSpec,
+        scenario: Scenario | None,
+        on_fatal: Fatal,
+        stamp_ns: Callable[[], int] = lambda: 0,
+        stops: bool = True,
+    ) -> None:
+        """``stops``: False for an observer (the recorder), which logs and counts foreign
+        publishers and mismatched peers but records on."""
+        self.node, self.spec, self.on_fatal, self.stamp_ns = node, spec, on_fatal, stamp_ns
+        self.log: Any = node.get_logger()  # type: ignore[no-untyped-call]  # unannotated
+        self.namespace = node.get_namespace()
+        self.strict = stops and ri.in_run(self.namespace)
+        self.stops = stops
+        self.fingerprint = "" if scenario is None else ri.scenario_fingerprint(scenario)
+        self.inputs = tuple(spec.subscribes)
+        self.foreign: dict[tuple[str, ri.Endpoint], float] = {}  # -> when first seen
+        self.compromised: set[str] = set()
+        self.refused_foreign = 0
+        self._counts: dict[str, int] = {}
+        self._unknown_since: dict[str, float] = {}
+        self.peers: dict[str, str] = {}  # role -> fingerprint, same namespace
+        self.fatal = False
+        self.pub = node.create_publisher(
+            DiagnosticArray, c.DIAGNOSTICS, c.qos(c.topic(c.DIAGNOSTICS))
+        )
+        self.sub = node.create_subscription(
+            DiagnosticArray,
+            c.DIAGNOSTICS,
+            self._on_diagnostics,
+            c.qos(c.topic(c.DIAGNOSTICS), subscriber=True),
+        )
+        node.create_timer(AUDIT_PERIOD_S, self.audit)
+        node.create_timer(IDENTITY_PERIOD_S, self.publish_identity)
+        self.publish_identity()
+
+    # -- foreign publishers --------------------------------------------------------
+
+    def admit(self, topic: str) -> bool:
+        """Whether a sample just taken from ``topic`` may be used (call per message)."""
+        if self.node.count_publishers(topic) != self._counts.get(topic):
+            self.audit()
+        if topic in self.compromised:
+            self.refused_foreign += 1
+            return False
+        return True
+
+    def audit(self) -> None:
+        now = time.monotonic()
+        for topic in self.inputs:
+            infos = self.node.get_publishers_info_by_topic(topic)
+            self._counts[topic] = len(infos)
+            endpoints = []
+            pending = False
+            for info in infos:
+                if info.node_name == _UNKNOWN:  # its node is not discovered yet
+                    since = self._unknown_since.setdefault(topic, now)
+                    if now - since < UNKNOWN_GRACE_S:
+                        pending = True
+                        continue
+                endpoints.append(ri.Endpoint(info.node_namespace, info.node_name))
+            if not pending:
+                self._unknown_since.pop(topic, None)
+            for endpoint in ri.foreign_publishers(topic, endpoints, self.namespace):
+                self._found(topic, endpoint, now)
+
+    def _found(self, topic: str, endpoint: ri.Endpoint, now: float) -> None:
+        key = (topic, endpoint)
+        if key in self.foreign:
+            return
+        self.foreign[key] = now
+        where = "another run" if ri.in_run(endpoint.namespace) else "no run"
+        text = (
+            f"foreign publisher {endpoint.node} ({where}) on {topic}, which this node "
+            f"takes; run namespace {self.namespace}"
+        )
+        self.log.error(text)
+        if self.strict:
+            self.compromised.add(topic)
+            self._fatal(ri.EXIT_FOREIGN_PUBLISHER, text)
+        self.publish_identity()
+
+    def foreign_names(self) -> list[str]:
+        return [f"{topic} <- {e.node}" for topic, e in self.foreign]
+
+    # -- identity and peers --------------------------------------------------------
+
+    def publish_identity(self) -> None:
+        values = {
+            ri.ROLE: self.spec.role,
+            ri.RUN_NAMESPACE: self.namespace,
+            ri.FINGERPRINT: self.fingerprint,
+            ri.FOREIGN_PUBLISHERS: str(len(self.foreign)),
+            ri.FOREIGN_NAMES: "; ".join(self.foreign_names()),
+            ri.REJECTED_MESSAGES: str(
+                int(getattr(self.node, "rejected", 0)) + self.refused_foreign
+            ),
+        }
+        status = DiagnosticStatus(
+            level=DiagnosticStatus.ERROR if self.foreign else DiagnosticStatus.OK,
+            name=self.node.get_fully_qualified_name(),
+            message="foreign publisher" if self.foreign else "run identity",
+            hardware_id=ri.IDENTITY_HARDWARE_ID,
+            values=[KeyValue(key=k, value=v) for k, v in values.items()],
+        )
+        msg = DiagnosticArray(status=[status])
+        set_stamp(msg.header.stamp, self.stamp_ns())
+        self.pub.publish(msg)
+
+    def _on_diagnostics(self, msg: Any) -> None:
+        for status in msg.status:
+            if status.hardware_id != ri.IDENTITY_HARDWARE_ID:
+                continue
+            values = {kv.key: kv.value for kv in status.values}
+            role, fingerprint = values.get(ri.ROLE), values.get(ri.FINGERPRINT, "")
+            if values.get(ri.RUN_NAMESPACE) != self.namespace or role is None:
+                continue
+            if role == self.spec.role or not fingerprint or not self.fingerprint:
+                continue  # itself, or a node without a scenario (the recorder)
+            self.peers[role] = fingerprint
+            if fingerprint != self.fingerprint:
+                self._fatal(
+                    ri.EXIT_FINGERPRINT_MISMATCH,
+                    f"scenario mismatch: {status.name} ({role}) runs scenario fingerprint "
+                    f"{fingerprint}, this node ({self.spec.role}) {self.fingerprint}: were "
+                    "they started with the same scenario file?",
+                )
+
+    def peers_agree(self) -> bool:
+        """True once every loop node of this namespace in the graph has been heard with
+        this node's fingerprint (the simulator's start-up gate)."""
+        present = {
+            name
+            for name, namespace in self.node.get_node_names_and_namespaces()
+            if namespace == self.namespace
+        }
+        for spec in node_graph.LOOP:
+            if spec is self.spec or spec.node_name not in present:
+                continue
+            if self.peers.get(spec.role) != self.fingerprint:
+                return False
+        return True
+
+    def _fatal(self, code: int, text: str) -> None:
+        if not self.stops:
+            self.log.error(text, throttle_duration_sec=5.0)
+            return
+        if not self.fatal:
+            self.fatal = True
+            self.log.error(f"stopping: {text}")
+            self.on_fatal(code, text)
