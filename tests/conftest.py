@@ -32,11 +32,12 @@ needs_workspace = pytest.mark.skipif(
 
 
 def start_bridge(
-    scenario: Path, env: dict[str, str], log: Path, *params: str
+    scenario: Path, env: dict[str, str], log: Path, *params: str, namespace: str = "/"
 ) -> subprocess.Popen[bytes]:
     """The example hardware bridge (``spacecraft_bridge_example``) on ``scenario``, with
     the node table's state listeners and extra ``-p`` parameters (``"time_mode:=realtime"``),
-    its output in ``log``. The caller stops it (SIGINT) and waits for it."""
+    in ``namespace`` (a run's, to join it), its output in ``log``. The caller stops it
+    (SIGINT) and waits for it."""
     from attitude_core.node_graph import state_listeners
 
     ros2 = shutil.which("ros2", path=env["PATH"])
@@ -45,7 +46,7 @@ def start_bridge(
     with open(log, "wb") as out:
         return subprocess.Popen(
             [ros2, "run", "spacecraft_bridge_example", "bridge", "--ros-args",
-             "--params-file", str(scenario), *extra,
+             "-r", f"__ns:={namespace}", "--params-file", str(scenario), *extra,
              "-p", f"lockstep.expected_subscribers:={state_listeners()}"],
             env=env, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
         )  # fmt: skip
@@ -93,10 +94,13 @@ def run_with_bridge(
     """``attitude-run --plant external`` on ``scenario`` against :func:`start_bridge`; the
     bridge outlives the run and is stopped (SIGINT) after it, as a user would. Returns
     the run (return code, stdout, stderr) and the bridge's return code."""
+    from attitude_core.run_identity import run_namespace
+
+    namespace = run_namespace()  # the bridge joins the run
     args = [str(Path(sys.prefix) / "bin" / "attitude-run"), str(scenario), "--out", str(out),
-            "--quiet", "--plant", "external", *run_args]  # fmt: skip
+            "--quiet", "--plant", "external", "--run-namespace", namespace, *run_args]  # fmt: skip
     run = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    bridge = start_bridge(scenario, env, log, *bridge_params)
+    bridge = start_bridge(scenario, env, log, *bridge_params, namespace=namespace)
     try:
         stdout, stderr = run.communicate(timeout=timeout_s)
     finally:

@@ -260,3 +260,20 @@ def test_keep_in_arc_margin_matches_a_dense_scipy_slerp():
         ends = _keep_in_reference(np.array([a, b]), cones).min()
         crossed += dense < min(ends, 0.0) - 1.0  # the cone left between two ends
     assert crossed >= 3
+
+
+def test_dense_margin_of_a_one_sample_run_is_that_samples_margin():
+    """A run stopped after its first state (e.g. by a foreign publisher) has no interval
+    to interpolate: its dense margin is the exact margin of the one attitude."""
+    from pathlib import Path
+
+    from attitude_core.metrics import dense_min_margin_deg
+    from attitude_core.scenario import load_scenario
+
+    sc = load_scenario(Path(__file__).resolve().parents[1] / "scenarios" / "case1.yaml")
+    geometry = sc.cone_geometry()
+    margin, t_min = dense_min_margin_deg(
+        geometry, np.array([0.0]), sc.initial_mrp[None, :], np.zeros((1, 3))
+    )
+    assert t_min == 0.0
+    assert margin == pytest.approx(float(geometry.min_margin_deg(sc.initial_mrp[None, :])[0]))

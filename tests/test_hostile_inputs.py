@@ -410,7 +410,8 @@ def test_two_runs_started_together_on_one_domain_never_cross_talk_silently(tmp_p
             assert not out.exists()
             continue
         summary = json.loads((out / "summary.json").read_text())
-        assert _body_margin(out) > 0.0
+        moved = summary["steps_recorded"] > 0  # a run may stop before its first step
+        assert not moved or _body_margin(out) > 0.0
         if p.returncode == 0:  # it ran alone: the other one refused
             assert summary["failure"] is None and summary["foreign_publishers"] == []
             assert [q.returncode for q in procs].count(2) == 1
@@ -418,4 +419,4 @@ def test_two_runs_started_together_on_one_domain_never_cross_talk_silently(tmp_p
             assert p.returncode == 1, stderr
             assert "foreign publisher" in summary["failure"]
             assert "(another run)" in summary["failure"]
-            assert _never_arrived(out)
+            assert not moved or _never_arrived(out)

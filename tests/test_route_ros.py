@@ -35,6 +35,8 @@ def test_infeasible_slew_is_reported_at_the_first_state_with_its_reason(tmp_path
     # The planner node said so in /diagnostics from the first stamp on, with the reason.
     first = None
     for m in read_bag(str(out / "bag"), [DIAGNOSTICS]):
+        if m.msg.status[0].name != diagnostics.STATUS_NAME:
+            continue  # a node's run identity
         values = {kv.key: kv.value for kv in m.msg.status[0].values}
         report = diagnostics.PlannerDiagnostics.from_values(values)
         first = first or report

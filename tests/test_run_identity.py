@@ -66,3 +66,9 @@ def test_diagnostics_may_come_from_any_node_of_the_run_and_from_other_tools():
     other_run = E("/attitude_run_other", "fepf_planner")
     found = ri.foreign_publishers(t.DIAGNOSTICS, [*mine, other_tool, other_run], ns)
     assert found == [other_run]
+
+
+def test_a_bridge_in_the_run_may_publish_every_plant_topic_the_simulator_does():
+    ns = ri.run_namespace()
+    for topic in (t.CLOCK, t.ATTITUDE, t.ANGULAR_VELOCITY, t.APPLIED_TORQUE):
+        assert ri.foreign_publishers(topic, [E(ns, "spacecraft_bridge")], ns) == []

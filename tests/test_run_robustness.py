@@ -321,6 +321,7 @@ BAD_PARAMS = {
     ),
     "simulator:time_mod:=lockstep": "--param simulator: time_mod: unknown key",
     "planner:planner.variant:=bogus": "--param planner: planner.variant: must be one of",
+    "planner:planner.variant:=paper": "--param planner: planner.variant: a scenario key: set it",
 }
 
 

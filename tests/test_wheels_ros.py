@@ -110,7 +110,7 @@ def test_a_plant_weaker_than_declared_never_gets_arrived_off_the_goal(tmp_path, 
     out = tmp_path / "run"
     run = subprocess.run(
         [str(BIN / "attitude-run"), str(scenario_path), "--out", str(out), "--quiet",
-         "--param", "simulator:actuators.max_torque_nm:=[0.003, 0.003, 0.003]"],
+         "--param", "simulator:fault.wheel_torque_fraction:=0.1"],
         env=ros_env(ros_environment()), capture_output=True, text=True, timeout=600,
     )  # fmt: skip
     summary = json.loads((out / "summary.json").read_text())

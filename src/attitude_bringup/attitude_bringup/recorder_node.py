@@ -278,7 +278,7 @@ class BagRecorderNode(Node):
         self.writer.custom_data["recorder_bad_stamps"] = str(self.bad_stamps)
         try:
             self.writer.close()
-        except BagWriteError as err:  # after the exit code was taken: logged only
+        except BagWriteError as err:  # sets the exit code; the runner reads it after close
             self.on_write_failed(err)
         state = "left unfinished for recovery" if self.writer.error else "closed"
         self.get_logger().info(

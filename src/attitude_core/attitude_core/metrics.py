@@ -38,8 +38,12 @@ def dense_min_margin_deg(
 
     Between samples the attitude is a cubic Hermite interpolant of the quaternion and
     its rate (``q_dot`` from ``omega``, so it is exact to O(dt^4)), renormalised.
-    Returns ``(min_margin_deg, time_of_min_s)``.
+    Returns ``(min_margin_deg, time_of_min_s)``; a run of one sample has no interval, and
+    its margin is that sample's.
     """
+    if len(t) < 2:
+        single = geometry.min_margin_deg(np.asarray(sigma_bn, dtype=float).reshape(-1, 3))
+        return float(single.min()), float(t[0])
     q = quat_sf_from_mrp(np.asarray(sigma_bn, dtype=float))
     # Make the quaternion sign continuous (shadow switches flip it).
     flips = np.cumsum(np.r_[0, (np.einsum("ij,ij->i", q[1:], q[:-1]) < 0.0)]) % 2

@@ -128,6 +128,14 @@ SIMULATOR = NodeParameters(
             60.0,
             Bounds(0.0, 3600.0),
         ),
+        Param(
+            "fault.wheel_torque_fraction",
+            "float",
+            "test mode: the plant's wheels saturate at this fraction of the declared "
+            "actuators.max_torque_nm (a plant weaker than the scenario says)",
+            1.0,
+            Bounds(0.001, 1.0),
+        ),
     ),
     scenario=(
         "scenario_name",

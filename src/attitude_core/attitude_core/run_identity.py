@@ -91,9 +91,7 @@ def in_run(namespace: str) -> bool:
 
 
 _TABLE_NAMES = frozenset(n.node_name for n in node_graph.NODES)
-_PLANT_TOPICS = frozenset(
-    name for name in node_graph.SIMULATOR.publishes if name != t.CLOCK
-) | frozenset(t.STATE_TOPICS)
+_PLANT_TOPICS = frozenset(node_graph.SIMULATOR.publishes) | frozenset(t.STATE_TOPICS)
 
 
 def _may_publish(topic: str, name: str) -> bool:

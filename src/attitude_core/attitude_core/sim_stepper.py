@@ -179,12 +179,15 @@ class SimStepper:
         cls, scenario: Scenario, parameters: dict[str, Any], created: float
     ) -> SimStepper:
         """The stepper of a scenario's body, with the simulator node's parameter values."""
+        declared = scenario.actuators.max_torque_nm
+        weaker = float(parameters.get("fault.wheel_torque_fraction", 1.0))
+        plant = None if declared is None else (
+            float(declared[0]) * weaker,
+            float(declared[1]) * weaker,
+            float(declared[2]) * weaker,
+        )  # fmt: skip
         config = StepperConfig.from_parameters(
-            parameters,
-            scenario.dt_s,
-            scenario.n_steps,
-            scenario.actuators.max_torque_nm,
-            torque_bound_nm(scenario),
+            parameters, scenario.dt_s, scenario.n_steps, plant, torque_bound_nm(scenario)
         )
         body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
         return cls(config, body, created)

@@ -115,7 +115,10 @@ class RunGuard:
         if key in self.foreign:
             return
         self.foreign[key] = now
-        where = "another run" if ri.in_run(endpoint.namespace) else "no run"
+        if endpoint.namespace == self.namespace:
+            where = "this run's namespace, not a publisher of this topic"
+        else:
+            where = "another run" if ri.in_run(endpoint.namespace) else "no run"
         text = (
             f"foreign publisher {endpoint.node} ({where}) on {topic}, which this node "
             f"takes; run namespace {self.namespace}"

@@ -117,6 +117,8 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
             close = getattr(node, "close", None)
             if close is not None:
                 close()
+                if code == EXIT_OK:  # closing can fail too (a bag finished on a full disk)
+                    code = getattr(node, "exit_code", EXIT_OK)
             node.destroy_node()  # type: ignore[no-untyped-call]  # unannotated in rclpy
         if rclpy_ok():
             rclpy.shutdown()

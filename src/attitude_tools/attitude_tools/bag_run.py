@@ -6,7 +6,11 @@ controller's torque where a bag has none), all with that stamp. Re-sent messages
 (same topic, same stamp) count once. Steps are taken in stamp order up to the first
 incomplete one, so the result is the same as the offline runner's ``RunResult`` for
 the recorded span. A step without a planner target (the planner was down) has NaN
-target rows. ``t`` is relative to the first stamp.
+target rows. ``t`` is relative to the first stamp. States before the first complete
+step, or more than 5 s after the last, are off the run's timeline (a stray publisher's
+stamps, which the recorder keeps as evidence) and are not steps. Only the planner's
+own ``/diagnostics`` (status name ``fepf_planner``) give step data; the nodes' run
+identities there do not.
 """
 
 from __future__ import annotations
@@ -45,6 +49,11 @@ class BagRun:
     incomplete_steps: int  # state stamps after the last complete step
 
 
+TRAILING_STATES_NS = 5 * 10**9
+"""States this long after the last complete step are the run's unanswered tail; later
+ones, and any before the first complete step, are not on the run's timeline."""
+
+
 def _xyz(v) -> tuple[float, float, float]:
     return (v.x, v.y, v.z)
 
@@ -65,8 +74,6 @@ def run_from_bag(
     wall: dict[int, int] = {}
     for m in read_bag(bag_dir, list(by_topic)):
         stamp = stamp_ns(m.msg.header.stamp)
-        if stamp != m.log_time_ns:
-            continue  # the recorder logged it elsewhere: an implausible stamp, not a step
         if m.topic == DIAGNOSTICS and not any(st.name == STATUS_NAME for st in m.msg.status):
             continue  # another node's diagnostics (a run identity): no step data
         by_topic[m.topic][stamp] = m.msg
@@ -75,6 +82,9 @@ def run_from_bag(
     states = sorted(by_topic[ATTITUDE])
     applied = by_topic[APPLIED_TORQUE]
     torque: dict[int, Any] = {s: applied.get(s, by_topic[TORQUE].get(s)) for s in states}
+    complete = [s for s in states if s in by_topic[ANGULAR_VELOCITY] and torque[s] is not None]
+    if complete:  # states off the run's timeline (stray stamps, kept as evidence) are no steps
+        states = [s for s in states if complete[0] <= s <= complete[-1] + TRAILING_STATES_NS]
     n = 0
     while (
         n < len(states)

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from attitude_core.node_graph import NodeSpec
 from attitude_core.param_overrides import check_overrides, parse_assignment
+from attitude_core.parameters import NodeParameterError
 from attitude_core.yamlio import load_strict
 
 __all__ = ["check_node_params"]
@@ -28,3 +29,13 @@ def check_node_params(
         source = f"--param {spec.role}"
         overrides = dict(parse_assignment(item, source) for item in items)
         check_overrides(spec.parameters, overrides, file_params, source, base_dir=path.parent)
+        own = {row.key for row in spec.parameters.own}
+        for name in overrides:
+            if name not in own and spec.parameters.scenario is not None:
+                raise NodeParameterError(
+                    source,
+                    name,
+                    "a scenario key: set it in the scenario file, which every node of the "
+                    "run reads (nodes with other scenario values fail the run's fingerprint "
+                    "check)",
+                )

@@ -365,6 +365,27 @@ def run_scenario(
             summary.update(run_fields(recovery, str(tmp / "bag"), bag_run.run.t))
             with open(tmp / "summary.json", "w") as f:
                 dump_strict(summary, f, indent=2)  # NaN/inf -> null, named in non_finite
+    if summary is None:  # no step recorded: the failure is still named in summary.json
+        with open(tmp / "summary.json", "w") as f:
+            dump_strict(
+                {
+                    "scenario": scenario.name,
+                    "reached": False,
+                    "min_margin_deg": None,
+                    "steps_recorded": 0,
+                    "time_mode": time_mode,
+                    "plant": plant,
+                    "end_reason": end_reason,
+                    "failure": f"{failure or end_reason}; no usable bag",
+                    "exit_codes": codes,
+                    "shutdown_s": round(shutdown_s, 3),
+                    "run_namespace": namespace,
+                    "ros_domain_id": int(env["ROS_DOMAIN_ID"]),
+                    "foreign_publishers": foreign,
+                },
+                f,
+                indent=2,
+            )
     refused = [  # nodes that refused their input (a check attitude-run could not make)
         f"{n} exited with code 2: {nodes.error_line(n)}"
         for n, c in codes.items()
