@@ -41,6 +41,20 @@ _UNKNOWN = "_NODE_NAME_UNKNOWN_"
 Fatal = Callable[[int, str], None]
 
 
+def identity_qos(depth: int = 1) -> Any:
+    """The run identity on ``/diagnostics``: reliable and transient-local (the last one
+    of each node reaches a node that starts later). The recorder's and the tools'
+    volatile ``/diagnostics`` readers take it as any other sample."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(  # type: ignore[no-untyped-call]
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+
+
 class RunGuard:
     def __init__(
         self,
@@ -52,7 +66,7 @@ class RunGuard:
         stops: bool = True,
     ) -> None:
         """``stops``: False for an observer (the recorder), which logs and counts foreign
-        publishers and mismatched peers but records on."""
+        publishers but records on, and checks no peers."""
         self.node, self.spec, self.on_fatal, self.stamp_ns = node, spec, on_fatal, stamp_ns
         self.log: Any = node.get_logger()  # type: ignore[no-untyped-call]  # unannotated
         self.namespace = node.get_namespace()
@@ -67,15 +81,15 @@ class RunGuard:
         self._unknown_since: dict[str, float] = {}
         self.peers: dict[str, str] = {}  # role -> fingerprint, same namespace
         self.fatal = False
-        self.pub = node.create_publisher(
-            DiagnosticArray, c.DIAGNOSTICS, c.qos(c.topic(c.DIAGNOSTICS))
-        )
-        self.sub = node.create_subscription(
-            DiagnosticArray,
-            c.DIAGNOSTICS,
-            self._on_diagnostics,
-            c.qos(c.topic(c.DIAGNOSTICS), subscriber=True),
-        )
+        self.pub = node.create_publisher(DiagnosticArray, c.DIAGNOSTICS, identity_qos())
+        # Peers' identities: transient-local, so a late joiner gets each peer's last one at
+        # once; and it does not match the planner's volatile per-step diagnostics (taking
+        # those in every node would cost 10 % of the lockstep rate).
+        self.sub: Any = None
+        if stops:
+            self.sub = node.create_subscription(
+                DiagnosticArray, c.DIAGNOSTICS, self._on_diagnostics, identity_qos(depth=16)
+            )
         node.create_timer(AUDIT_PERIOD_S, self.audit)
         node.create_timer(IDENTITY_PERIOD_S, self.publish_identity)
         self.publish_identity()
