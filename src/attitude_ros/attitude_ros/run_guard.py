@@ -7,7 +7,8 @@ Every node of the table creates one :class:`RunGuard`. It
   at once when a message arrives while the topic's publisher count changed; a foreign
   publisher is logged with its node name and counted; in a run's namespace the node then
   stops with ``EXIT_FOREIGN_PUBLISHER`` (``admit`` refuses the topic's samples from the
-  moment it is seen);
+  moment it is seen, and while a writer on it is not identified yet: its node name
+  comes a little after the endpoint, at most :data:`UNKNOWN_GRACE_S` is waited);
 * publishes the node's identity (role, run namespace, scenario fingerprint, foreign
   publishers and refused messages so far) on ``/diagnostics`` every
   :data:`IDENTITY_PERIOD_S`;
@@ -100,8 +101,8 @@ class RunGuard:
         """Whether a sample just taken from ``topic`` may be used (call per message)."""
         if self.node.count_publishers(topic) != self._counts.get(topic):
             self.audit()
-        if topic in self.compromised:
-            self.refused_foreign += 1
+        if topic in self.compromised or (self.strict and topic in self._unknown_since):
+            self.refused_foreign += 1  # foreign, or a writer not identified yet
             return False
         return True
 
