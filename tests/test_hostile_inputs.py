@@ -381,12 +381,15 @@ def test_second_run_on_the_same_domain_is_refused_and_the_first_stays_safe(
         assert "/fepf_planner" in stderr2 and not second.exists()
         assert run1.returncode == 0
         assert summary["failure"] is None and summary["foreign_publishers"] == []
-    else:  # the check missed it: both guards saw the other run
+    else:  # the check missed it: the second run's guards stopped it at once
         assert run2.returncode == 1, stderr2
         summary2 = json.loads((second / "summary.json").read_text())
         assert "(another run)" in summary2["failure"]
         assert summary2["steps_recorded"] == 0 or _body_margin(second) > 0.0
-        assert run1.returncode == 1 and "(another run)" in summary["failure"]
+        if run1.returncode == 0:  # the first never saw it: nothing foreign was recorded
+            assert summary["failure"] is None and summary["foreign_publishers"] == []
+        else:  # the first's recorder saw the second run's publishers and names them
+            assert run1.returncode == 1 and "(another run)" in summary["failure"]
 
 
 def test_two_runs_started_together_on_one_domain_never_cross_talk_silently(tmp_path, ros_env):
@@ -422,9 +425,9 @@ def test_two_runs_started_together_on_one_domain_never_cross_talk_silently(tmp_p
         summary = json.loads((out / "summary.json").read_text())
         moved = summary["steps_recorded"] > 0  # a run may stop before its first step
         assert not moved or _body_margin(out) > 0.0
-        if p.returncode == 0:  # it ran alone: the other one refused
+        if p.returncode == 0:  # the other was refused, or stopped before it was seen
             assert summary["failure"] is None and summary["foreign_publishers"] == []
-            assert [q.returncode for q in procs].count(2) == 1
+            assert sorted(q.returncode for q in procs) in ([0, 1], [0, 2])
         else:
             assert p.returncode == 1, stderr
             # Stopped by its guard, or (the other stopped first) finished safely with the
