@@ -31,7 +31,6 @@ from test_bag_recovery import assert_finished_and_consistent, mcap_path
 
 from attitude_core import node_graph
 from attitude_core.recording import EXIT_DISK_FULL
-from attitude_core.status import PlannerStatus
 from attitude_core.topics import (
     ANGULAR_VELOCITY,
     ATTITUDE,
@@ -115,12 +114,8 @@ class Recording:
             node_graph.RECORDER,
             [
                 "-p",
-                f"output_dir:={self.bag}",
-                "-p",
-                f"stop_on_planner_status:=[{PlannerStatus.ARRIVED},{PlannerStatus.STUCK}]",
-                "-p",
-                "stop_delay_s:=5.0",
-                "-p",
+                f"output_dir:={self.bag}",  # no stop status: it records until it is
+                "-p",  # killed, however fast the lockstep run ends
                 f"scenario_file:={CASE1}",
             ],
         )
