@@ -261,14 +261,16 @@ def _recorder_pid(staging_parent: Path) -> int | None:
 def test_attitude_run_recovers_the_bag_of_a_killed_recorder(tmp_path, ros_domain, step_probe):
     out = tmp_path / "run"
     proc = subprocess.Popen(
-        [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet"],
+        # Real time: the recorder is surely still recording when it is killed (a lockstep
+        # Case 1 can finish its bag within the time it takes to find the recorder).
+        [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet", "--mode", "realtime"],
         env=run_env(ros_domain),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
     try:
-        step_probe.wait_steps(150, WAIT_S, alive=lambda: proc.poll() is None)
+        step_probe.wait_steps(30, WAIT_S, alive=lambda: proc.poll() is None)
         pid = _recorder_pid(tmp_path)
         assert pid is not None, "recorder not found"
         os.kill(pid, signal.SIGKILL)
