@@ -144,7 +144,11 @@ def test_a_torque_of_1e300_is_refused_never_integrated(graph):
     # A lockstep Case 1 takes about a second: send the torque every 20 ms of it, at the
     # step being awaited, so some arrive whenever discovery matches the simulator.
     recorder = graph.graph.procs["recorder"]
+    deadline = time.monotonic() + WAIT_S
     while recorder.poll() is None:
+        assert time.monotonic() < deadline, "the recording never ended:\n" + "\n".join(
+            f"{name}:\n{graph.graph.tail(name)}" for name in graph.graph.procs
+        )
         pub.publish(_torque_msg(int(round(graph.clock_s * 10) * 10**8), (1e300, 0.0, 0.0)))
         graph.executor.spin_once(timeout_sec=0.02)
     graph.wait_recording_done()

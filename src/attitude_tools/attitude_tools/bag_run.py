@@ -1,8 +1,11 @@
 """A run rebuilt from its recording alone: bag directory -> ``RunResult``.
 
 Step ``k`` of the run is a state stamp for which the bag holds the attitude, the body
-rate and the torque applied over the step (the simulator's ``applied_torque``; the
-controller's torque where a bag has none), all with that stamp. Re-sent messages
+rate and the torque applied over the step, all with that stamp. The torque is the
+simulator's ``applied_torque``; only a bag with none at all (a plant that does not
+publish it) falls back to the commanded torque. Commanded torques are never mixed in
+where applied ones are missing: anyone can publish a torque with a step's stamp (a stray
+node, a flood), only what the plant applied tells what the body got. Re-sent messages
 (same topic, same stamp) count once. Steps are taken in stamp order up to the first
 incomplete one, so the result is the same as the offline runner's ``RunResult`` for
 the recorded span. A step without a planner target (the planner was down) has NaN
@@ -81,7 +84,8 @@ def run_from_bag(
             wall.setdefault(stamp, m.publish_time_ns)
     states = sorted(by_topic[ATTITUDE])
     applied = by_topic[APPLIED_TORQUE]
-    torque: dict[int, Any] = {s: applied.get(s, by_topic[TORQUE].get(s)) for s in states}
+    source = applied if applied else by_topic[TORQUE]
+    torque: dict[int, Any] = {s: source.get(s) for s in states}
     complete = [s for s in states if s in by_topic[ANGULAR_VELOCITY] and torque[s] is not None]
     if complete:  # states off the run's timeline (stray stamps, kept as evidence) are no steps
         states = [s for s in states if complete[0] <= s <= complete[-1] + TRAILING_STATES_NS]
