@@ -621,7 +621,7 @@ class ControllerProbe:
         return vector_msg(ns, value, frame)
 
     def filled(self, ns: int) -> int:
-        return sum(x is not None for x in self.node.pending.get(ns, ()))
+        return sum(x is not None for x in self.node.intake.pending.get(ns, ()))
 
     def feed(self, slot: int, ns: int, value) -> None:
         """Publish one input and wait until the node holds it (it is then pending)."""

@@ -16,7 +16,7 @@ real slew.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
@@ -83,21 +83,32 @@ def implausible_torque(u: Values, bound: Sequence[float]) -> str | None:
 
 def implausible_rate(omega: Values, name: str = "angular velocity") -> str | None:
     """Why a rate (rad/s) is not plausible, else None."""
-    reason = _finite(omega, name)
-    if reason:
-        return reason
-    norm = math.sqrt(sum(float(v) * float(v) for v in omega))
-    if norm > MAX_RATE_RAD_S:
-        return f"{name} {norm:.6g} rad/s exceeds the plausible bound {MAX_RATE_RAD_S:g} rad/s"
-    return None
+    return _beyond_norm(
+        omega,
+        name,
+        MAX_RATE_RAD_S,
+        lambda norm: (
+            f"{name} {norm:.6g} rad/s exceeds the plausible bound {MAX_RATE_RAD_S:g} rad/s"
+        ),
+    )
 
 
 def implausible_mrp(sigma: Values, name: str = "MRP") -> str | None:
     """Why a transmitted MRP is not plausible (non-finite, or beyond the unit ball)."""
-    reason = _finite(sigma, name)
+    return _beyond_norm(
+        sigma,
+        name,
+        1.0 + MRP_NORM_TOLERANCE,
+        lambda norm: f"{name} has norm {norm:.6g} > 1 (MRPs on the wire are the short set)",
+    )
+
+
+def _beyond_norm(
+    values: Values, name: str, bound: float, why: Callable[[float], str]
+) -> str | None:
+    """Why ``values`` are non-finite or of Euclidean norm above ``bound``, else None."""
+    reason = _finite(values, name)
     if reason:
         return reason
-    norm = math.sqrt(sum(float(v) * float(v) for v in sigma))
-    if norm > 1.0 + MRP_NORM_TOLERANCE:
-        return f"{name} has norm {norm:.6g} > 1 (MRPs on the wire are the short set)"
-    return None
+    norm = math.sqrt(sum(float(v) * float(v) for v in values))
+    return why(norm) if norm > bound else None

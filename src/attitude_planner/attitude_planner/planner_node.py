@@ -40,25 +40,16 @@ from std_msgs.msg import Float64, String
 from attitude_core import diagnostics, node_graph
 from attitude_core.fepf import FepfPlanner
 from attitude_core.guidance import Guidance, GuidanceOutput
-from attitude_core.plausibility import implausible_rate
 from attitude_core.stamp_gate import StampGate
+from attitude_core.stamp_pairing import StampPairing
 from attitude_core.status import PlannerStatus
 from attitude_core.topics import NS_PER_S
 from attitude_ros import contract as c
-from attitude_ros.convert import (
-    bad_frame,
-    bad_quaternion,
-    mrp_from_quaternion,
-    reject,
-    set_vector3,
-    stamp_ns,
-    vector3,
-)
+from attitude_ros.convert import set_vector3
+from attitude_ros.intake import attitude_value, rate_value, subscribe_paired
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
-
-_PENDING_MAX = 64  # stamps kept while waiting for the other half of the state
 
 
 class FepfPlannerNode(Node):
@@ -76,9 +67,7 @@ class FepfPlannerNode(Node):
         self.guidance: Guidance | None = None
         self.first_stamp_ns = 0
         self.last_stamp_ns: int | None = None
-        self.pending: dict[int, list] = {}  # stamp -> [sigma_BN, omega_B] while pairing
-        self.gate = StampGate(self.scenario.sim_time_s)
-        self.bad_values = 0  # refused for their content (frame, quaternion, rate)
+        self.intake = StampPairing(2, StampGate(self.scenario.sim_time_s))  # sigma_BN, omega_B
         self.done, self.exit_code = False, 0
         self.guard = RunGuard(
             self,
@@ -100,64 +89,25 @@ class FepfPlannerNode(Node):
         self.out_rate.header.frame_id = c.TARGET_FRAME
         self.out_margin = Float64()
         self.out_diag = None
-        for slot, (name, msg_type) in enumerate(
-            ((c.ATTITUDE, QuaternionStamped), (c.ANGULAR_VELOCITY, Vector3Stamped))
-        ):
-            self.create_subscription(
-                msg_type,
-                name,
-                self.callback(slot, name),
-                c.qos(c.topic(name), subscriber=True),
-                qos_overriding_options=c.state_qos_overrides(c.topic(name)),
-            )
+        subscribe_paired(
+            self,
+            self.guard,
+            self.intake,
+            (
+                (c.ATTITUDE, QuaternionStamped, attitude_value),
+                (c.ANGULAR_VELOCITY, Vector3Stamped, rate_value),
+            ),
+            self.answer,
+            self.publish,  # a lockstep re-send: same state, same answer
+        )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': FEPF variant {self.scenario.planner.variant}, "
             f"{len(self.scenario.instrument_names)} instrument(s), "
             f"{len(self.scenario.bright_object_names)} bright object(s)"
         )
 
-    def callback(self, slot: int, name: str):
-        def on_message(msg) -> None:
-            if not self.guard.admit(name):
-                return
-            verdict = self.gate.screen(
-                msg.header.stamp.sec, msg.header.stamp.nanosec, time.time_ns()
-            )
-            if verdict.repeat:
-                if slot == 0:
-                    self.publish()  # lockstep re-send: same state, same answer
-                return
-            if not verdict.accept:
-                reject(self, name, verdict.reason, count=self.rejected)
-                return
-            if verdict.reason:  # accepted, with a note (the gate re-anchored)
-                self.get_logger().warning(f"{name}: {verdict.reason}")
-            stamp = stamp_ns(msg.header.stamp)
-            reason = bad_frame(msg, name)
-            value = None
-            if reason is None and slot == 0:
-                reason = bad_quaternion(msg.quaternion)
-                if reason is None:
-                    value = mrp_from_quaternion(msg.quaternion)
-            elif reason is None:
-                value = vector3(msg.vector)
-                reason = implausible_rate(value)
-            if reason:
-                reject(self, name, reason)
-                return
-            state = self.pending.setdefault(stamp, [None, None])
-            state[slot] = value
-            if state[0] is not None and state[1] is not None:
-                self.gate.take(stamp, time.time_ns())
-                self.answer(stamp, msg.header.stamp, state[0], state[1])
-            elif len(self.pending) > _PENDING_MAX:
-                del self.pending[min(self.pending)]
-
-        return on_message
-
-    def answer(self, stamp: int, stamp_msg, sigma_bn, omega_b) -> None:
-        for old in [s for s in self.pending if s <= stamp]:
-            del self.pending[old]
+    def answer(self, stamp: int, stamp_msg, state: tuple) -> None:
+        sigma_bn, omega_b = state
         if self.guidance is None:
             fresh = np.allclose(sigma_bn, self.scenario.initial_mrp, rtol=0.0, atol=1e-9)
             self.guidance = Guidance.from_scenario(
@@ -204,12 +154,8 @@ class FepfPlannerNode(Node):
 
     @property
     def rejected(self) -> int:
-        """Refused input messages: implausible stamps and bad values."""
-        return self.gate.rejected + self.bad_values
-
-    @rejected.setter
-    def rejected(self, total: int) -> None:  # convert.reject counts through this
-        self.bad_values = total - self.gate.rejected
+        """Refused input messages, for their stamp or their content."""
+        return self.intake.rejected
 
     def stop(self, code: int, reason: str) -> None:
         """The run guard's verdict: stop answering, exit with ``code``."""
