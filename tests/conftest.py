@@ -17,6 +17,7 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -62,23 +63,38 @@ def run_env(domain: int) -> dict[str, str]:
     return env
 
 
+ATTITUDE_RUN = str(Path(sys.prefix) / "bin" / "attitude-run")
+
+
+def _attitude_run_args(scenario: Path | str, out: Path | str, extra: tuple[str, ...]) -> list[str]:
+    return [ATTITUDE_RUN, str(scenario), "--out", str(out), "--quiet", *extra]
+
+
 def attitude_run(
     scenario: Path | str, out: Path | str, domain: int, *extra: str, timeout: float = 180
 ) -> subprocess.CompletedProcess[str]:
     """``attitude-run SCENARIO --out OUT --quiet EXTRA...`` on ROS domain ``domain``."""
     return subprocess.run(
-        [
-            str(Path(sys.prefix) / "bin" / "attitude-run"),
-            str(scenario),
-            "--out",
-            str(out),
-            "--quiet",
-            *extra,
-        ],  # fmt: skip
+        _attitude_run_args(scenario, out, extra),
         env=run_env(domain),
         capture_output=True,
         text=True,
         timeout=timeout,
+    )
+
+
+def spawn_attitude_run(
+    scenario: Path | str, out: Path | str, env: dict[str, str], *extra: str, **popen: Any
+) -> subprocess.Popen[str]:
+    """The same, started in the background with ``env`` (:func:`run_env` for a domain of
+    its own); stdout and stderr are piped, as text."""
+    return subprocess.Popen(
+        _attitude_run_args(scenario, out, extra),
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **popen,
     )
 
 
@@ -97,8 +113,9 @@ def run_with_bridge(
     from attitude_core.run_identity import run_namespace
 
     namespace = run_namespace()  # the bridge joins the run
-    args = [str(Path(sys.prefix) / "bin" / "attitude-run"), str(scenario), "--out", str(out),
-            "--quiet", "--plant", "external", "--run-namespace", namespace, *run_args]  # fmt: skip
+    args = _attitude_run_args(
+        scenario, out, ("--plant", "external", "--run-namespace", namespace, *run_args)
+    )
     run = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     bridge = start_bridge(scenario, env, log, *bridge_params, namespace=namespace)
     try:
@@ -118,6 +135,22 @@ def reserve_domain() -> DomainReservation:
         return _reserve_domain()
     except NoFreeDomain as err:
         pytest.fail(str(err), pytrace=False)
+
+
+def listen_like_a_recorder(node, on_state, depth: int = 10) -> None:
+    """Subscribe ``node`` (a test's probe) to the state, the target and the torque, with
+    ``on_state(msg)`` on ``/spacecraft/attitude``: it listens where a recorder listens,
+    so the simulator's graph wait counts it as one (``lockstep.expected_subscribers``)."""
+    from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from attitude_core.topics import ANGULAR_VELOCITY, ATTITUDE, TARGET_MRP, TARGET_RATE, TORQUE
+
+    qos = QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+    node.create_subscription(QuaternionStamped, ATTITUDE, on_state, qos)
+    for name in (ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE):
+        node.create_subscription(Vector3Stamped, name, lambda msg: None, qos)
+    node.create_subscription(WrenchStamped, TORQUE, lambda msg: None, qos)
 
 
 class StepProbe:

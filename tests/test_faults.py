@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import needs_workspace
+from conftest import listen_like_a_recorder, needs_workspace
 
 from attitude_core import node_graph
 from attitude_core.closed_loop import run_closed_loop
@@ -23,7 +23,7 @@ from attitude_core.metrics import arrival_time, dense_min_margin_deg
 from attitude_core.mrp import angle_between_single
 from attitude_core.scenario import load_scenario
 from attitude_core.status import PlannerStatus
-from attitude_core.topics import ANGULAR_VELOCITY, ATTITUDE, TARGET_MRP, TARGET_RATE, TORQUE
+from attitude_core.topics import TARGET_MRP, TORQUE
 from attitude_tools.bag import read_bag
 from attitude_tools.bag_run import run_from_bag
 from attitude_tools.run import NodeGraph, ros_environment
@@ -49,9 +49,7 @@ class Graph:
 
     def __init__(self, tmp_path: Path, domain: int, sim_params=()):
         import rclpy
-        from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         self.domain = domain
         env = ros_environment()
@@ -77,12 +75,7 @@ class Graph:
         self.probe = rclpy.create_node("fault_probe", context=self.ctx)
         self.clock_s = -1.0
         self.killed: set[str] = set()
-        qos = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
-        self.probe.create_subscription(QuaternionStamped, ATTITUDE, self._on_state, qos)
-        # Listens where a recorder listens, so the simulator's graph wait counts it as one.
-        for name in (ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE):
-            self.probe.create_subscription(Vector3Stamped, name, lambda msg: None, qos)
-        self.probe.create_subscription(WrenchStamped, TORQUE, lambda msg: None, qos)
+        listen_like_a_recorder(self.probe, self._on_state, depth=10)
         self.executor = SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.probe)
 

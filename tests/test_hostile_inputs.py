@@ -21,14 +21,13 @@ import re
 import shutil
 import signal
 import subprocess
-import sys
 import threading
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import needs_workspace
+from conftest import needs_workspace, spawn_attitude_run
 from test_faults import Graph, assert_safe_arrival
 
 from attitude_core import node_graph
@@ -261,14 +260,6 @@ def test_a_flood_of_garbage_cannot_crash_a_node_or_steer_the_loop(graph):
 # -- attitude-run: foreign publishers and other runs -------------------------------------
 
 
-def _attitude_run(scenario: Path, out: Path, env: dict[str, str], *extra: str):
-    return subprocess.Popen(
-        [str(Path(sys.prefix) / "bin" / "attitude-run"), str(scenario), "--out", str(out),
-         "--quiet", *extra],
-        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-
-
 def _ros2_run(env: dict[str, str], log: Path, package: str, executable: str, *args: str):
     ros2 = shutil.which("ros2", path=env["PATH"])
     assert ros2 is not None
@@ -307,7 +298,7 @@ def test_stray_simulator_stops_the_run_at_once_with_a_named_failure(
     publisher of no run on a topic they take, stop, and the run ends within seconds with
     the stray named; the body, recorded up to then, kept its margin."""
     out = tmp_path / "run"
-    run = _attitude_run(CASE1, out, ros_env(), "--mode", "realtime")
+    run = spawn_attitude_run(CASE1, out, ros_env(), "--mode", "realtime")
     stray = None
     try:
         step_probe.wait_steps(20, WAIT_S, alive=lambda: run.poll() is None)
@@ -355,7 +346,7 @@ def test_stray_simulator_alive_before_the_run_makes_it_refuse_the_domain(
         while "waiting for" not in log.read_text():
             assert time.monotonic() < deadline and stray.poll() is None
             time.sleep(0.05)
-        run = _attitude_run(CASE1, out, ros_env())
+        run = spawn_attitude_run(CASE1, out, ros_env())
         _, stderr = run.communicate(timeout=WAIT_S)
     finally:
         stray.send_signal(signal.SIGINT)
@@ -380,10 +371,10 @@ def test_second_run_on_the_same_domain_is_refused_and_the_first_stays_safe(
     first named, and the first stays safe and names the second, which its recorder saw.
     Never a violation, never ``failure: null`` beside the other run's traffic."""
     first, second = tmp_path / "first", tmp_path / "second"
-    run1 = _attitude_run(CASE1, first, ros_env(), "--mode", "realtime", "--settle-s", "1")
+    run1 = spawn_attitude_run(CASE1, first, ros_env(), "--mode", "realtime", "--settle-s", "1")
     try:
         step_probe.wait_steps(20, WAIT_S, alive=lambda: run1.poll() is None)
-        run2 = _attitude_run(CASE2, second, ros_env())
+        run2 = spawn_attitude_run(CASE2, second, ros_env())
         _, stderr2 = run2.communicate(timeout=WAIT_S)
         run1.communicate(timeout=WAIT_S)
     finally:
@@ -415,13 +406,13 @@ def test_two_runs_started_together_on_one_domain_never_cross_talk_silently(tmp_p
     the other's traffic."""
     outs = [tmp_path / "a", tmp_path / "b"]
     barrier = threading.Barrier(2)
-    procs: list[subprocess.Popen] = []
+    procs: list[subprocess.Popen] = [None, None]  # in the order of outs, not of starting
 
-    def start(scenario, out):
+    def start(i, scenario):
         barrier.wait()
-        procs.append(_attitude_run(scenario, out, ros_env(), "--mode", "realtime"))
+        procs[i] = spawn_attitude_run(scenario, outs[i], ros_env(), "--mode", "realtime")
 
-    threads = [threading.Thread(target=start, args=a) for a in ((CASE1, outs[0]), (CASE2, outs[1]))]
+    threads = [threading.Thread(target=start, args=a) for a in ((0, CASE1), (1, CASE2))]
     for th in threads:
         th.start()
     for th in threads:

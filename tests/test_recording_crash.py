@@ -26,7 +26,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import needs_workspace, run_env
+from conftest import listen_like_a_recorder, needs_workspace, run_env, spawn_attitude_run
 from test_bag_recovery import assert_finished_and_consistent, mcap_path
 
 from attitude_core import node_graph
@@ -35,8 +35,6 @@ from attitude_core.topics import (
     ANGULAR_VELOCITY,
     ATTITUDE,
     DIAGNOSTICS,
-    TARGET_MRP,
-    TARGET_RATE,
     TORQUE,
 )
 from attitude_tools.bag import bag_info, read_attachment, read_bag
@@ -46,7 +44,6 @@ from attitude_tools.run import NodeGraph, ros_environment
 ROOT = Path(__file__).resolve().parents[1]
 CASE1 = ROOT / "scenarios" / "case1.yaml"
 RECOVER = str(Path(sys.prefix) / "bin" / "attitude-bag-recover")
-ATTITUDE_RUN = str(Path(sys.prefix) / "bin" / "attitude-run")
 WAIT_S = 120.0
 LOSS_BOUND_S = 1.0
 """Issue 14: at most this much wall time of messages may be lost at a kill."""
@@ -70,9 +67,7 @@ class Recording:
 
     def __init__(self, tmp_path: Path, domain: int, time_mode: str):
         import rclpy
-        from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
         from rclpy.executors import SingleThreadedExecutor
-        from rclpy.qos import QoSProfile, ReliabilityPolicy
 
         env = ros_environment()
         env["ROS_DOMAIN_ID"] = str(domain)
@@ -87,12 +82,7 @@ class Recording:
         self.ctx = rclpy.Context()
         rclpy.init(context=self.ctx, domain_id=domain)
         self.probe = rclpy.create_node("crash_probe", context=self.ctx)
-        qos = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
-        self.probe.create_subscription(QuaternionStamped, ATTITUDE, self._on_state, qos)
-        # Listens where a recorder listens, so the simulator's graph wait counts it as one.
-        for name in (ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE):
-            self.probe.create_subscription(Vector3Stamped, name, lambda msg: None, qos)
-        self.probe.create_subscription(WrenchStamped, TORQUE, lambda msg: None, qos)
+        listen_like_a_recorder(self.probe, self._on_state, depth=100)
         self.executor = SingleThreadedExecutor(context=self.ctx)
         self.executor.add_node(self.probe)
         self.spinner = threading.Thread(target=self._spin, daemon=True)
@@ -260,15 +250,9 @@ def _recorder_pid(staging_parent: Path) -> int | None:
 
 def test_attitude_run_recovers_the_bag_of_a_killed_recorder(tmp_path, ros_domain, step_probe):
     out = tmp_path / "run"
-    proc = subprocess.Popen(
-        # Real time: the recorder is surely still recording when it is killed (a lockstep
-        # Case 1 can finish its bag within the time it takes to find the recorder).
-        [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet", "--mode", "realtime"],
-        env=run_env(ros_domain),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    # Real time: the recorder is surely still recording when it is killed (a lockstep
+    # Case 1 can finish its bag within the time it takes to find the recorder).
+    proc = spawn_attitude_run(CASE1, out, run_env(ros_domain), "--mode", "realtime")
     try:
         step_probe.wait_steps(30, WAIT_S, alive=lambda: proc.poll() is None)
         pid = _recorder_pid(tmp_path)
@@ -306,13 +290,7 @@ def test_implausible_stamps_neither_crash_the_recorder_nor_end_the_run(
         DiagnosticArray, DIAGNOSTICS, QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
     )
     out = tmp_path / "run"
-    proc = subprocess.Popen(
-        [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet"],
-        env=run_env(ros_domain),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
+    proc = spawn_attitude_run(CASE1, out, run_env(ros_domain))
     try:
         step_probe.wait_steps(50, WAIT_S, alive=lambda: proc.poll() is None)
         deadline = time.monotonic() + WAIT_S
@@ -373,13 +351,7 @@ def test_disk_full_mid_run_keeps_what_was_recorded(tmp_path, ros_domain, step_pr
     subprocess.run(["mount", "-t", "tmpfs", "-o", "size=80m", "tmpfs", str(disk)], check=True)
     try:
         out = disk / "run"
-        proc = subprocess.Popen(
-            [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet", "--mode", "realtime"],
-            env=run_env(ros_domain),
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
+        proc = spawn_attitude_run(CASE1, out, run_env(ros_domain), "--mode", "realtime")
         try:
             step_probe.wait_steps(20, WAIT_S, alive=lambda: proc.poll() is None)
             filled = _fill(disk)

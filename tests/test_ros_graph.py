@@ -81,6 +81,22 @@ def test_lockstep_run_arrives_without_violation_from_the_bag_alone(paper_case):
 
 
 @pytest.mark.slow
+def test_a_clean_run_logs_no_warning_or_error(paper_case):
+    """A nominal run's node logs hold no warning: one there means something to look at
+    (the design's /diagnostics durability split, for one, is logged at debug level).
+    Only a late torque may warn: how late depends on the machine's load."""
+    logs = sorted((paper_case / "logs").glob("*.log"))
+    assert {p.stem for p in logs} >= {"planner", "controller", "simulator", "recorder"}
+    noisy = [
+        f"{p.name}: {line}"
+        for p in logs
+        for line in p.read_text().splitlines()
+        if line.startswith(("[WARN]", "[ERROR]", "[FATAL]")) and "no torque for step" not in line
+    ]
+    assert not noisy, "\n".join(noisy)
+
+
+@pytest.mark.slow
 def test_lockstep_trajectory_matches_the_offline_runner(paper_case):
     bag_run = run_from_bag(str(paper_case / "bag"))
     run = bag_run.run

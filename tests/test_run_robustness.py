@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
-from conftest import attitude_run, needs_workspace, run_env
+from conftest import ATTITUDE_RUN, attitude_run, needs_workspace, run_env, spawn_attitude_run
 
 from attitude_core.process_identity import OWNER_ENV, ProcessIdentity
 from attitude_tools import run as run_cli
@@ -27,7 +27,6 @@ from attitude_tools.strict_json import dumps_strict, finite_only
 
 ROOT = Path(__file__).resolve().parents[1]
 CASE1 = ROOT / "scenarios" / "case1.yaml"
-ATTITUDE_RUN = str(Path(sys.prefix) / "bin" / "attitude-run")
 EXIT_WITHIN_S = 5.0
 
 
@@ -90,12 +89,8 @@ def test_sigkilled_run_leaves_no_orphans_and_the_next_run_recovers(tmp_path, ros
     (parent-death signal), the recorder finishes the bag; the next run into the same
     --out recovers that staging directory as ``out.interrupted-*`` and completes."""
     out = tmp_path / "out"
-    run = subprocess.Popen(
-        [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet", "--settle-s", "200.0"],
-        env=run_env(ros_domain),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
+    run = spawn_attitude_run(
+        CASE1, out, run_env(ros_domain), "--settle-s", "200.0", start_new_session=True
     )
     try:
         nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 4 and c, 60, "4 nodes")

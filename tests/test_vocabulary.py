@@ -8,6 +8,7 @@ topics the node sources really subscribe and publish (read with ``ast``, not imp
 from __future__ import annotations
 
 import ast
+import inspect
 import math
 from pathlib import Path
 
@@ -18,6 +19,7 @@ from attitude_core import topics as t
 from attitude_core.diagnostics import KEYS, PlannerDiagnostics
 from attitude_core.node_parameters import CONTROLLER, PLANNER, RECORDER, SIMULATOR
 from attitude_core.status import DiagnosticLevel, PlannerStatus
+from attitude_ros.intake import subscribe_paired
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
@@ -292,6 +294,10 @@ def test_readiness_of_the_default_graph_counts_the_real_subscribers():
 # --- node graph: the node sources ------------------------------------------------------
 
 ENDPOINT_METHODS = {"create_subscription": "sub", "create_publisher": "pub"}
+# attitude_ros.intake.subscribe_paired(node, guard, pairing, inputs, ...) subscribes the
+# topic of each (topic, type, convert) row of ``inputs``.
+PAIRED = subscribe_paired.__name__
+PAIRED_INPUTS = list(inspect.signature(subscribe_paired).parameters).index("inputs")
 
 
 def _topic_constants_in(node: ast.AST) -> set[str]:
@@ -370,6 +376,13 @@ def endpoints(source: str) -> dict[str, set[str]]:
                 if isinstance(func, ast.Name)
                 else None
             )
+            name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            if name == PAIRED:
+                rows = node.args[PAIRED_INPUTS]
+                assert isinstance(rows, ast.Tuple | ast.List), f"line {node.lineno}: inputs"
+                for row in rows.elts:
+                    assert isinstance(row, ast.Tuple), f"line {row.lineno}: an input row"
+                    found["sub"] |= _topics_of_argument(row.elts[0], loops)
             if kind is not None:
                 index = topic_index.get(func.id, 1) if isinstance(func, ast.Name) else 1
                 topic = (

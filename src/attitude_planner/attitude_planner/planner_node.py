@@ -48,7 +48,7 @@ from attitude_ros import contract as c
 from attitude_ros.convert import set_vector3
 from attitude_ros.intake import attitude_value, rate_value, subscribe_paired
 from attitude_ros.params import declare_scenario_node
-from attitude_ros.run_guard import RunGuard
+from attitude_ros.run_guard import RunGuard, diagnostics_events
 from attitude_ros.runner import run
 
 
@@ -83,7 +83,12 @@ class FepfPlannerNode(Node):
         self.pub_rate = pub(Vector3Stamped, c.TARGET_RATE, c.qos(c.topic(c.TARGET_RATE)))
         self.pub_status = pub(String, c.PLANNER_STATUS, c.qos(c.topic(c.PLANNER_STATUS)))
         self.pub_margin = pub(Float64, c.KEEP_OUT_MARGIN, c.qos(c.topic(c.KEEP_OUT_MARGIN)))
-        self.pub_diag = pub(DiagnosticArray, c.DIAGNOSTICS, c.qos(c.topic(c.DIAGNOSTICS)))
+        self.pub_diag = pub(
+            DiagnosticArray,
+            c.DIAGNOSTICS,
+            c.qos(c.topic(c.DIAGNOSTICS)),
+            event_callbacks=diagnostics_events(self, publisher=True),
+        )
         self.out_mrp, self.out_rate = Vector3Stamped(), Vector3Stamped()
         self.out_mrp.header.frame_id = c.INERTIAL_FRAME
         self.out_rate.header.frame_id = c.TARGET_FRAME

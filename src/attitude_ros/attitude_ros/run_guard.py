@@ -56,6 +56,35 @@ def identity_qos(depth: int = 1) -> Any:
     )
 
 
+def diagnostics_events(node: Node, publisher: bool) -> Any:
+    """Event callbacks for a ``/diagnostics`` endpoint of ours. The guards' identity
+    readers are transient-local so that they do not take the planner's volatile per-step
+    diagnostics: DDS reports each such pair as incompatible DURABILITY, by design, which
+    is logged at debug level. Any other incompatible policy warns, as rclpy's default."""
+    from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+    from rclpy.qos import QoSPolicyKind
+
+    log: Any = node.get_logger()  # type: ignore[no-untyped-call]  # unannotated
+    other = "subscription" if publisher else "publisher"
+
+    def on_incompatible(event: Any) -> None:
+        policy = QoSPolicyKind(event.last_policy_kind)
+        if policy is QoSPolicyKind.DURABILITY:
+            log.debug(
+                f"{c.DIAGNOSTICS}: a {other} of the other durability is not matched (by "
+                "design: run identities are transient-local, per-step diagnostics volatile)"
+            )
+        else:
+            log.warning(
+                f"{c.DIAGNOSTICS}: a {other} with incompatible QoS ({policy.name}) was "
+                "discovered; no messages pass between them"
+            )
+
+    if publisher:
+        return PublisherEventCallbacks(incompatible_qos=on_incompatible)
+    return SubscriptionEventCallbacks(incompatible_qos=on_incompatible)
+
+
 class RunGuard:
     def __init__(
         self,
@@ -89,7 +118,11 @@ class RunGuard:
         self.sub: Any = None
         if stops:
             self.sub = node.create_subscription(
-                DiagnosticArray, c.DIAGNOSTICS, self._on_diagnostics, identity_qos(depth=16)
+                DiagnosticArray,
+                c.DIAGNOSTICS,
+                self._on_diagnostics,
+                identity_qos(depth=16),
+                event_callbacks=diagnostics_events(node, publisher=False),
             )
         node.create_timer(AUDIT_PERIOD_S, self.audit)
         node.create_timer(IDENTITY_PERIOD_S, self.publish_identity)
