@@ -20,10 +20,10 @@ import time
 import numpy as np
 
 from attitude_core.closed_loop import run_closed_loop
-from attitude_core.fepf import FepfPlanner
-from attitude_core.guidance import Guidance
-from attitude_core.scenario import load_scenario
-from attitude_core.status import PlannerStatus
+from attitude_core.config.scenario import load_scenario
+from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc.fepf import FepfPlanner
+from attitude_core.gnc.guidance import Guidance
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 AIM_STEP_US = 50.0

@@ -71,7 +71,7 @@ def main() -> int:
     parser = argparse.ArgumentParser()
     parser.add_argument("--repeats", type=int, default=5)
     args = parser.parse_args()
-    from attitude_tools.domain import reserve_domain
+    from attitude_tools.run.domain import reserve_domain
 
     detect, stop = [], []
     for k in range(args.repeats):

@@ -34,12 +34,13 @@ import time
 import numpy as np
 
 from attitude_core.closed_loop import run_closed_loop
-from attitude_core.control import PdGains, commanded_torque
-from attitude_core.dynamics import RigidBody
-from attitude_core.fepf import FepfPlanner
-from attitude_core.scenario import loads_scenario
-from attitude_core.status import PlannerStatus
-from attitude_core.trajectory import RunResult, summarize
+from attitude_core.config.scenario import loads_scenario
+from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc.control import PdGains, commanded_torque
+from attitude_core.gnc.dynamics import RigidBody
+from attitude_core.gnc.fepf import FepfPlanner
+from attitude_core.record.summary import summarize
+from attitude_core.record.trajectory import RunResult
 from attitude_tools.campaign.draw import base_parameters, draw_run
 from attitude_tools.campaign.spec import CampaignSpec, Range
 
@@ -64,7 +65,7 @@ def wheel_scenarios() -> list[dict]:
     for path in sorted(glob.glob(f"{ROOT}/scenarios/*_wheels.yaml")):
         with open(path, encoding="utf-8") as f:
             sc = loads_scenario(f.read(), path)
-        s = summarize(run_closed_loop(sc))
+        s = summarize(run_closed_loop(sc)).to_json()
         rows.append(s)
         ratio = s["time_ratio_to_bound"]
         t_reach = s["t_reach_s"] or float("nan")
@@ -161,10 +162,10 @@ def random_slews(n: int, seed: int) -> None:
         sc, r = draw(spec, base, i)
         redraws += r
         run = run_closed_loop(sc)
-        s = summarize(run)
+        s = summarize(run).to_json()
         o = outcome(s)
         counts["closed-loop guidance"][o] += 1
-        counts["open-loop FEPF"][outcome(summarize(open_loop(sc)))] += 1
+        counts["open-loop FEPF"][outcome(summarize(open_loop(sc)).to_json())] += 1
         margins.append(s["min_margin_deg"])
         torque_over.append(s["peak_torque_to_bound"])
         rate_over.append(s["peak_rate_to_bound"])

@@ -12,8 +12,8 @@ import dataclasses
 import os
 
 from attitude_core.closed_loop import run_closed_loop
-from attitude_core.scenario import load_scenario
-from attitude_core.trajectory import summarize
+from attitude_core.config.scenario import load_scenario
+from attitude_core.record.summary import summarize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -34,7 +34,7 @@ def main():
         for axis in ("paper", "goal_plane"):
             for gamma in gammas:
                 cfg = dataclasses.replace(base.planner, direction_axis=axis, gamma_deg=gamma)
-                s = summarize(run_closed_loop(dataclasses.replace(base, planner=cfg)))
+                s = summarize(run_closed_loop(dataclasses.replace(base, planner=cfg))).to_json()
                 t = f"{s['t_reach_s']:.1f}" if s["t_reach_s"] is not None else "-"
                 print(
                     f"| {name} | {cfg.variant} | {axis} | {gamma:.0f} | {s['reached']} | {t} | "

@@ -30,7 +30,7 @@ import tempfile
 import time
 
 from attitude_core.closed_loop import run_closed_loop
-from attitude_core.scenario import load_scenario
+from attitude_core.config.scenario import load_scenario
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.dirname(sys.executable)

@@ -1,13 +1,15 @@
-"""Benchmark of the global route (``attitude_core.route``): planning time per scenario
+"""Benchmark of the global route (``attitude_core.gnc.route``): planning time per scenario
 over a campaign's drawn scenarios, the one-off roadmap build, and the time to decide
 that a slew is infeasible, from a cold process.
 
-Run: .venv/bin/python bench/route_bench.py [--runs N] [--spec campaigns/random_slews.yaml ...]
+Run: .venv/bin/python bench/route_bench.py [--runs N] [--spec campaigns/leo_star_tracker.yaml ...]
 
 For each SPEC, the first ``N`` runs are drawn exactly as ``attitude-campaign`` draws them
 and the route each would plan before its first step is planned again here, timed alone
 (``RoutePlanner`` construction and ``plan``, with the roadmaps already built: a planner
-node builds them before its first state, a campaign worker once). Printed: median, p99
+node builds them before its first state, a campaign worker once; on a moving sky, the
+swept cones' geometry too: ``SkyGuide.plan_route``, as the guidance plans it again
+during the run). Printed: median, p99
 and max against the 100 ms budget, and how the routes were found (direct rotation,
 default roadmap, dense roadmap, infeasible). The roadmaps' build time is printed
 separately, and ``scenarios/enclosed_goal.yaml`` is decided infeasible in a fresh
@@ -26,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from attitude_core.fepf import FepfPlanner
-from attitude_core.guidance import Guidance
-from attitude_core.route import FINE_FACTOR, ROADMAP_NODES, roadmap
+from attitude_core.gnc.fepf import FepfPlanner
+from attitude_core.gnc.guidance import Guidance, scenario_eta_s
+from attitude_core.gnc.route import FINE_FACTOR, ROADMAP_NODES, roadmap
 from attitude_tools.campaign.draw import base_parameters, draw_run
 from attitude_tools.campaign.spec import load_spec
 
@@ -39,8 +41,8 @@ DECIDE_BUDGET_S = 1.0
 _COLD = """
 import time, sys
 t0 = time.perf_counter()
-from attitude_core.scenario import load_scenario
-from attitude_core.guidance import Guidance
+from attitude_core.config.scenario import load_scenario
+from attitude_core.gnc.guidance import Guidance
 sc = load_scenario(sys.argv[1])
 t1 = time.perf_counter()
 g = Guidance.from_scenario(sc)
@@ -59,8 +61,13 @@ def route_times(spec_path: Path, runs: int) -> tuple[np.ndarray, dict[str, int]]
     for i in range(runs):
         sc = draw_run(spec, base, i, spec.planner_variants[0]).scenario
         buffer = FepfPlanner.from_scenario(sc).geometry.inflation_deg
+        guide = Guidance.moving_sky_guide(sc, buffer)  # None on a fixed sky
+        eta = scenario_eta_s(sc, sc.initial_mrp)
         t0 = time.perf_counter()
-        route = Guidance.route_planner(sc, buffer).plan(sc.initial_mrp, sc.desired_mrp)
+        if guide is None:
+            route = Guidance.route_planner(sc, buffer).plan(sc.initial_mrp, sc.desired_mrp)
+        else:  # the cones swept over the expected slew: their geometry, planner and route
+            route = guide.plan_route(0.0, eta, sc.initial_mrp, sc.desired_mrp)
         times.append(time.perf_counter() - t0)
         if not route.feasible:
             kinds["infeasible"] += 1
@@ -86,6 +93,7 @@ def main() -> int:
     specs = args.spec or [
         str(ROOT / "campaigns" / "random_slews.yaml"),
         str(ROOT / "campaigns" / "random_slews_keep_in.yaml"),
+        str(ROOT / "campaigns" / "leo_star_tracker.yaml"),
     ]
     for size in (ROADMAP_NODES, FINE_FACTOR * ROADMAP_NODES):
         t0 = time.perf_counter()

@@ -14,7 +14,7 @@ Launch arguments:
   spacecraft_sim).
 * ``bag_dir``: output directory of the bag written by ``bag_recorder`` (default ``bag``).
 
-Starts the nodes of :data:`attitude_core.node_graph.NODES` (recorder, planner, controller,
+Starts the nodes of :data:`attitude_core.contract.node_graph.NODES` (recorder, planner, controller,
 simulator), the same table ``attitude-run`` starts; the simulator waits for every state
 listener of that table (``node_graph.state_listeners()``: planner, controller, recorder).
 The whole launch shuts down when the simulator exits (end of the simulated time, or an
@@ -30,8 +30,8 @@ from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
-from attitude_core import node_graph as graph
-from attitude_core.node_parameters import LOCKSTEP, TIME_MODES
+from attitude_core.contract import node_graph as graph
+from attitude_core.contract.time_mode import TimeMode
 
 
 def generate_launch_description():
@@ -69,8 +69,8 @@ def generate_launch_description():
             ),
             DeclareLaunchArgument(
                 'time_mode',
-                default_value=LOCKSTEP,
-                choices=list(TIME_MODES),
+                default_value=TimeMode.LOCKSTEP.value,
+                choices=[m.value for m in TimeMode],
                 description='Pacing of the simulator: lockstep or realtime',
             ),
             DeclareLaunchArgument(

@@ -33,6 +33,15 @@ def bridge_command(launch: str, scenario: str, mode: str) -> list[str]:
     ]
 
 
+def start_bridge(launch: str, scenario: str, mode: str) -> BridgeProcess | None:
+    """The bridge started with ``launch`` (given the scenario file and the time mode), or
+    None when ``launch`` is empty (the bridge is already running); OSError when it cannot
+    start."""
+    if not launch:
+        return None
+    return BridgeProcess(bridge_command(launch, os.path.abspath(scenario), mode))
+
+
 class BridgeProcess:
     """One started bridge."""
 

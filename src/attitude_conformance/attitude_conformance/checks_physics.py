@@ -6,7 +6,7 @@ from collections import Counter
 
 import numpy as np
 
-from attitude_core.topics import BODY_FRAME
+from attitude_core.contract.topics import BODY_FRAME
 
 from .physics import ATTITUDE_TOL_RAD, RATE_TOL_RAD_S, matches, step_errors
 from .record import FAIL, PASS, SKIP, Recording, Result, Window

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from attitude_core.topics import STATE_TOPICS
+from attitude_core.contract.topics import STATE_TOPICS
 
 from .record import FAIL, PASS, SKIP, Result
 

@@ -12,8 +12,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from attitude_core.node_parameters import LOCKSTEP, SIMULATOR
-from attitude_core.scenario import Scenario
+from attitude_core.config.node_parameters import SIMULATOR
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.time_mode import TimeMode
 
 PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
 POINTS = (
@@ -74,7 +75,7 @@ class Setup:
     limits: BridgeLimits = BridgeLimits()
 
     @classmethod
-    def from_scenario(cls, scenario: Scenario, mode: str = LOCKSTEP) -> Setup:
+    def from_scenario(cls, scenario: Scenario, mode: str = TimeMode.LOCKSTEP) -> Setup:
         return cls(
             mode,
             scenario.dt_s,
@@ -89,7 +90,7 @@ class Setup:
 
     @property
     def lockstep(self) -> bool:
-        return self.mode == LOCKSTEP
+        return self.mode == TimeMode.LOCKSTEP
 
 
 @dataclass

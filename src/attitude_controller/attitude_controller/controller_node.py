@@ -19,15 +19,15 @@ from __future__ import annotations
 import random
 from typing import Any
 
-from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
-from rclpy.node import Node
+from geometry_msgs.msg import WrenchStamped
 
-from attitude_core import node_graph
-from attitude_core.control import PdGains, commanded_torque
-from attitude_core.stamp_gate import StampGate
-from attitude_core.stamp_pairing import StampPairing
+from attitude_core.contract import node_graph
+from attitude_core.gnc.control import PdGains, commanded_torque
+from attitude_core.runtime.stamp_gate import StampGate
+from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
 from attitude_ros.convert import set_vector3
+from attitude_ros.endpoints import message, publisher
 from attitude_ros.intake import (
     attitude_value,
     rate_value,
@@ -35,41 +35,37 @@ from attitude_ros.intake import (
     target_mrp_value,
     target_rate_value,
 )
+from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
 
 
-class PdControllerNode(Node):
+class PdControllerNode(StackNode):
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.CONTROLLER.node_name, **kwargs)
+        super().__init__(node_graph.CONTROLLER, **kwargs)
         own, self.scenario = declare_scenario_node(self, node_graph.CONTROLLER.parameters)
-        self.drop_fraction = own["fault.drop_torque_fraction"]
-        self.rng = random.Random(own["fault.seed"])
+        self.drop_fraction = own.fault.drop_torque_fraction
+        self.rng = random.Random(own.fault.seed)
         self.dropped = 0
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
         self.last_stamp: int | None = None  # stamp of the last torque, and the torque
         self.last_torque: WrenchStamped | None = None
         # sigma_BN, omega_B, sigma_RN, omega_t of one stamp
         self.intake = StampPairing(4, StampGate(self.scenario.sim_time_s))
-        self.done, self.exit_code = False, 0
         self.guard = RunGuard(
-            self,
-            node_graph.CONTROLLER,
-            self.scenario,
-            self.stop,
-            stamp_ns=lambda: self.last_stamp or 0,
+            self, self.spec, self.scenario, self.stop, stamp_ns=lambda: self.last_stamp or 0
         )
-        self.pub_torque = self.create_publisher(WrenchStamped, c.TORQUE, c.qos(c.topic(c.TORQUE)))
+        self.pub_torque = publisher(self, c.TORQUE)
         subscribe_paired(
             self,
             self.guard,
             self.intake,
             (
-                (c.ATTITUDE, QuaternionStamped, attitude_value),
-                (c.ANGULAR_VELOCITY, Vector3Stamped, rate_value),
-                (c.TARGET_MRP, Vector3Stamped, target_mrp_value),
-                (c.TARGET_RATE, Vector3Stamped, target_rate_value),
+                (c.ATTITUDE, attitude_value),
+                (c.ANGULAR_VELOCITY, rate_value),
+                (c.TARGET_MRP, target_mrp_value),
+                (c.TARGET_RATE, target_rate_value),
             ),
             self.answer,
             lambda: self.publish(self.last_torque),  # a lockstep re-send: the same torque
@@ -81,20 +77,14 @@ class PdControllerNode(Node):
 
     @property
     def rejected(self) -> int:
-        """Refused input messages, for their stamp or their content."""
         return self.intake.rejected
-
-    def stop(self, code: int, reason: str) -> None:
-        """The run guard's verdict: stop answering, exit with ``code``."""
-        self.done, self.exit_code = True, code
 
     def answer(self, stamp: int, stamp_msg, inputs) -> None:
         sigma_bn, omega_b, sigma_t, omega_t = inputs
         limit = self.scenario.actuators.max_torque_nm
         u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
-        out = WrenchStamped()
+        out = message(c.TORQUE)
         out.header.stamp = stamp_msg
-        out.header.frame_id = c.BODY_FRAME
         set_vector3(out.wrench.torque, u)
         self.publish(out)
         self.last_stamp, self.last_torque = stamp, out

@@ -2,10 +2,10 @@
 
 The loop at step ``k`` (``t_k = k dt``): the guidance gives the target
 ``(sigma_t, omega_t)`` for the body state at ``t_k`` (eqs. 6-10, 12, closed on the
-measured state, :mod:`attitude_core.guidance`), the controller the torque ``u_k``
+measured state, :mod:`attitude_core.gnc.guidance`), the controller the torque ``u_k``
 from the body state at ``t_k`` (eq. 11), and the body is propagated to ``t_{k+1}`` with
 ``u_k`` held (eqs. 3-4). With ``actuators.max_torque_nm`` the controller scales its
-command into the bound and the plant clips per axis (:mod:`attitude_core.actuators`).
+command into the bound and the plant clips per axis (:mod:`attitude_core.gnc.actuators`).
 The nodes run the same functions, one per process.
 """
 
@@ -15,13 +15,13 @@ import time
 
 import numpy as np
 
-from .actuators import clip_to_bound
-from .control import PdGains, commanded_torque
-from .dynamics import RigidBody
-from .guidance import Guidance
-from .scenario import Scenario
-from .topics import NS_PER_S
-from .trajectory import RunResult
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.topics import NS_PER_S
+from attitude_core.gnc.actuators import clip_to_bound
+from attitude_core.gnc.control import PdGains, commanded_torque
+from attitude_core.gnc.dynamics import RigidBody
+from attitude_core.gnc.guidance import Guidance
+from attitude_core.record.trajectory import RunResult
 
 __all__ = ["run_closed_loop"]
 

@@ -1,12 +1,13 @@
-"""The topic contract as rclpy needs it: the names of :mod:`attitude_core.topics`, plus QoS
+"""The topic contract as rclpy needs it: the names of :mod:`attitude_core.contract.topics`, plus QoS
 and message classes."""
 
 from __future__ import annotations
 
+import functools
 from typing import TYPE_CHECKING, Any
 
-from attitude_core.topics import *  # noqa: F403 - the contract's names, re-exported
-from attitude_core.topics import (  # noqa: F401
+from attitude_core.contract.topics import *  # noqa: F403 - the contract's names, re-exported
+from attitude_core.contract.topics import (  # noqa: F401
     CLOCK,
     HISTORY_DEPTH,
     STATE_TOPICS,
@@ -59,8 +60,9 @@ def recorder_qos(entry: Topic) -> QoSProfile:
     return profile
 
 
+@functools.cache
 def message_class(type_name: str) -> type[Any]:
-    """The Python class of ``pkg/msg/Type``."""
+    """The Python class of ``pkg/msg/Type`` (looked up once per process)."""
     import importlib
 
     pkg, _, name = type_name.split("/")

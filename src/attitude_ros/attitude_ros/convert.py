@@ -11,11 +11,14 @@ from typing import Any
 
 import numpy as np
 import numpy.typing as npt
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-from attitude_core.mrp import Vec3Like, mrp_from_quat, quat_from_mrp
-from attitude_core.topics import NS_PER_S, Stamp
-from attitude_core.topics import stamp_ns as stamp_ns  # re-exported for the nodes
-from attitude_core.topics import topic as contract_topic
+from attitude_core.contract import diagnostics
+from attitude_core.contract.diagnostics import PlannerDiagnostics
+from attitude_core.contract.topics import NS_PER_S, Stamp
+from attitude_core.contract.topics import stamp_ns as stamp_ns  # re-exported for the nodes
+from attitude_core.contract.topics import topic as contract_topic
+from attitude_core.gnc.mrp import Vec3Like, mrp_from_quat, quat_from_mrp
 
 # ROS messages, nodes and loggers are typed Any: the message packages ship no type
 # information, and only their attributes are used here.
@@ -98,3 +101,18 @@ def bad_quaternion(q: Any, tolerance: float = 1e-3) -> str | None:
     if abs(norm - 1.0) > tolerance:
         return f"orientation quaternion has norm {norm:.6g}, not 1"
     return None
+
+
+def diagnostic_array(stamp: Any, report: PlannerDiagnostics) -> Any:
+    """The planner's ``/diagnostics`` message: one ``DiagnosticStatus`` named as the
+    contract says, its level and message from the status, the report's key/values."""
+    status = DiagnosticStatus(
+        level=bytes([report.status.level]),
+        name=diagnostics.STATUS_NAME,
+        message=report.status.value,
+        hardware_id=diagnostics.HARDWARE_ID,
+        values=[KeyValue(key=k, value=v) for k, v in report.values()],
+    )
+    array = DiagnosticArray(status=[status])
+    array.header.stamp = stamp
+    return array

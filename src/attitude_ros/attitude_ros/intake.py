@@ -1,5 +1,5 @@
 """Stamp-paired subscriptions for the planner and the controller (the ROS shell of
-:class:`attitude_core.stamp_pairing.StampPairing`).
+:class:`attitude_core.runtime.stamp_pairing.StampPairing`).
 
 :func:`subscribe_paired` subscribes each input topic of a node with the contract's QoS.
 A message goes through the run guard (:meth:`attitude_ros.run_guard.RunGuard.admit`:
@@ -15,10 +15,10 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from attitude_core.plausibility import implausible_mrp, implausible_rate
-from attitude_core.stamp_pairing import Intake, StampPairing
-from attitude_ros import contract as c
+from attitude_core.runtime.plausibility import implausible_mrp, implausible_rate
+from attitude_core.runtime.stamp_pairing import Intake, StampPairing
 from attitude_ros.convert import bad_frame, bad_quaternion, mrp_from_quaternion, reject, vector3
+from attitude_ros.endpoints import subscription
 from attitude_ros.run_guard import RunGuard
 
 __all__ = [
@@ -65,24 +65,20 @@ def subscribe_paired(
     node: Any,
     guard: RunGuard,
     pairing: StampPairing,
-    inputs: Sequence[tuple[str, Any, Convert]],
+    inputs: Sequence[tuple[str, Convert]],
     on_complete: Callable[[int, Any, tuple[Any, ...]], None],
     on_repeat: Callable[[], None],
 ) -> None:
-    """Subscribe ``inputs`` (topic, message type, convert), one per pairing slot.
+    """Subscribe ``inputs`` (topic, convert), one per pairing slot, as the contract says.
 
     ``on_complete(stamp_ns, stamp_msg, values)`` answers a stamp whose inputs are all
     in (``values`` in ``inputs`` order); ``on_repeat()`` answers the last stamp again.
     """
     if len(inputs) != pairing.slots:
         raise ValueError(f"{len(inputs)} input topics for {pairing.slots} pairing slots")
-    for slot, (name, msg_type, convert) in enumerate(inputs):
-        node.create_subscription(
-            msg_type,
-            name,
-            _callback(node, guard, pairing, slot, name, convert, on_complete, on_repeat),
-            c.qos(c.topic(name), subscriber=True),
-            qos_overriding_options=c.state_qos_overrides(c.topic(name)),
+    for slot, (name, convert) in enumerate(inputs):
+        subscription(
+            node, name, _callback(node, guard, pairing, slot, name, convert, on_complete, on_repeat)
         )
 
 

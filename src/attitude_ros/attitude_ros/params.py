@@ -1,11 +1,11 @@
-"""Declare a node's parameter table (:mod:`attitude_core.node_parameters`) on the node.
+"""Declare a node's parameter table (:mod:`attitude_core.config.node_parameters`) on the node.
 
 Each row becomes one declared parameter with a descriptor built from the row: type,
 description with its rule, read-only flag, and a floating-point or integer range when
 the row has closed bounds. A row without a default is declared typed and unset.
 
 A node that reads the scenario validates the whole scenario with the one loader
-(:func:`attitude_core.scenario.parse_scenario`): the rows it declares, plus every other
+(:func:`attitude_core.config.scenario.parse_scenario`): the rows it declares, plus every other
 parameter given to it (file or ``-p``) that it did not declare. So a scenario file is
 accepted or refused by every node exactly as by ``load_scenario``, including a typo
 in a key the node does not read. Relative data-file paths are resolved against the
@@ -16,23 +16,19 @@ so they resolve as ``load_scenario`` resolves them).
 from __future__ import annotations
 
 import os
-from typing import Any
+from typing import Any, TypeVar
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 from rclpy.exceptions import ParameterUninitializedException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 
-from attitude_core.node_parameters import NodeParameters
-from attitude_core.param_overrides import refuse_unknown
-from attitude_core.parameters import NodeParameterError, Param, ParameterError, values_from
-from attitude_core.scenario import (
-    Scenario,
-    ScenarioError,
-    parse_scenario,
-    scenario_keys,
-)
-from attitude_core.scenario_schema import GROUPS
+from attitude_core.config.node_parameters import NodeParameters
+from attitude_core.config.parameters import NodeParameterError, Param, ParameterError
+from attitude_core.config.scenario import Scenario, ScenarioError, parse_scenario, scenario_keys
+from attitude_core.config.scenario_schema import GROUPS
+
+P = TypeVar("P")
 
 __all__ = [
     "descriptor",
@@ -97,14 +93,12 @@ def _declare(
         raise error(source, row.key, f"{type(exc).__name__}: {exc}") from exc
 
 
-def declare_node_parameters(
-    node: Node, table: NodeParameters
-) -> tuple[dict[str, Any], Scenario | None]:
-    """Declare ``table`` on ``node``; return (own values by key, the validated scenario
-    or None when the node takes none).
+def declare_node_parameters(node: Node, table: NodeParameters[P]) -> tuple[P, Scenario | None]:
+    """Declare ``table`` on ``node``; return (its own values as ``table.values``, the
+    validated scenario or None when the node takes none).
 
-    Raises :class:`~attitude_core.parameters.NodeParameterError` or
-    :class:`~attitude_core.scenario.ScenarioError` (both :class:`ParameterError`) naming
+    Raises :class:`~attitude_core.config.parameters.NodeParameterError` or
+    :class:`~attitude_core.config.scenario.ScenarioError` (both :class:`ParameterError`) naming
     the key on a missing, unknown or invalid value.
     """
     source = f"node '{node.get_fully_qualified_name()}' parameters"
@@ -113,9 +107,9 @@ def declare_node_parameters(
         value = _declare(node, row, source, NodeParameterError, with_default=True)
         if value is not None:
             given[row.key] = value
-    own = values_from(table.own, given, source)  # rclpy checked type and range; rows the rest
+    own = table.own_values(given, source)  # rclpy checked type and range; the rows the rest
     if table.scenario is None:
-        refuse_unknown(undeclared_parameters(node), table, source)
+        table.refuse_unknown(undeclared_parameters(node), source)
         return own, None
 
     flat: dict[str, Any] = {}
@@ -160,7 +154,7 @@ def undeclared_parameters(node: Node) -> dict[str, Any]:
     }
 
 
-def declare_scenario_node(node: Node, table: NodeParameters) -> tuple[dict[str, Any], Scenario]:
+def declare_scenario_node(node: Node, table: NodeParameters[P]) -> tuple[P, Scenario]:
     """:func:`declare_node_parameters` for a node that reads the scenario."""
     own, scenario = declare_node_parameters(node, table)
     if scenario is None:

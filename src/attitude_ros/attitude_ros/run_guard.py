@@ -1,5 +1,5 @@
 """A node's guard against foreign publishers and mismatched peers (see
-:mod:`attitude_core.run_identity` for the rules and why).
+:mod:`attitude_core.runtime.run_identity` for the rules and why).
 
 Every node of the table creates one :class:`RunGuard`. It
 
@@ -26,10 +26,10 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
-from attitude_core import node_graph
-from attitude_core import run_identity as ri
-from attitude_core.node_graph import NodeSpec
-from attitude_core.scenario import Scenario
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract import node_graph
+from attitude_core.contract.node_graph import NodeSpec
+from attitude_core.runtime import run_identity as ri
 from attitude_ros import contract as c
 from attitude_ros.convert import set_stamp
 
@@ -89,7 +89,7 @@ class RunGuard:
     def __init__(
         self,
         node: Node,
-        spec: NodeSpec,
+        spec: NodeSpec[Any],
         scenario: Scenario | None,
         on_fatal: Fatal,
         stamp_ns: Callable[[], int] = lambda: 0,

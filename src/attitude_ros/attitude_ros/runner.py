@@ -7,10 +7,10 @@ checks (rclpy's own handlers would tear the context down under a running callbac
 the node is then closed (a recorder finishes its bag) and rclpy shut down in order.
 
 A node started by ``attitude-run`` also stops when attitude-run dies: the kernel sends
-it SIGTERM (``attitude_tools.child_process``), and, as a second line (e.g. with a real
+it SIGTERM (``attitude_tools.run.processes``), and, as a second line (e.g. with a real
 ``ros2 run`` in between, or off Linux), a parent watchdog here checks every
 :data:`OWNER_CHECK_S` that the process named in
-:data:`~attitude_core.process_identity.OWNER_ENV` is still alive.
+:data:`~attitude_core.runtime.process_identity.OWNER_ENV` is still alive.
 """
 
 from __future__ import annotations
@@ -28,10 +28,10 @@ from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 from rclpy.utilities import ok as rclpy_ok  # rclpy.ok, where it is defined
 
-from attitude_core.exit_codes import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK  # noqa: F401
-from attitude_core.parameters import ParameterError
-from attitude_core.process_identity import OWNER_ENV, ProcessIdentity
-from attitude_core.scenario import ScenarioError
+from attitude_core.config.parameters import ParameterError
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.contract.exit_codes import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK  # noqa: F401
+from attitude_core.runtime.process_identity import OWNER_ENV, ProcessIdentity
 
 OWNER_CHECK_S = 0.5
 

@@ -1,7 +1,7 @@
 """``attitude-offline SCENARIO.yaml --out DIR``: the closed loop in one process, no ROS.
 
-Writes ``DIR/summary.json`` (:func:`attitude_core.trajectory.summarize`) and
-``DIR/timeseries.csv``, staged and published whole (:mod:`attitude_tools.rundir`).
+Writes ``DIR/summary.json`` (:func:`attitude_core.record.trajectory.summarize`) and
+``DIR/timeseries.csv``, staged and published whole (:mod:`attitude_tools.output.rundir`).
 Exit code: 0 reached without violation, 1 otherwise (an infeasible slew says why on
 stderr), 2 bad input.
 """
@@ -11,16 +11,17 @@ from __future__ import annotations
 import argparse
 import shutil
 import sys
+from typing import Any
 
 import numpy as np
 
-from attitude_core import diagnostics
 from attitude_core.closed_loop import run_closed_loop
-from attitude_core.scenario import ScenarioError, load_scenario
-from attitude_core.trajectory import RunResult, summarize
-
-from .rundir import check_replaceable, publish, stage
-from .strict_json import dump_strict, dumps_strict
+from attitude_core.config.scenario import ScenarioError, load_scenario
+from attitude_core.contract import diagnostics
+from attitude_core.record.summary import summarize
+from attitude_core.record.trajectory import RunResult
+from attitude_tools.output.rundir import check_replaceable, publish, stage
+from attitude_tools.output.strict_json import dump_strict, dumps_strict
 
 __all__ = ["TIMESERIES_COLUMNS", "write_run", "main"]
 
@@ -36,7 +37,7 @@ TIMESERIES_COLUMNS = (
 )
 
 
-def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
+def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
     """Write ``summary.json`` and ``timeseries.csv`` atomically into ``out_dir``.
 
     Files go to a temporary sibling directory that replaces ``out_dir`` only when
@@ -45,7 +46,7 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
     out = check_replaceable(out_dir, ("summary.json",), "run directory")
     tmp = stage(out, ".tmp-run-")
     try:
-        margins = run.scenario.cone_geometry().min_margin_deg(run.sigma_bn)
+        margins = run.scenario.sky.min_margin_deg(run.t, run.sigma_bn)  # at each instant
         table = np.column_stack(
             [
                 run.t,
@@ -75,7 +76,7 @@ def write_run(run: RunResult, summary: dict, out_dir: str) -> None:
         raise
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="attitude-offline",
         description="Run a scenario closed-loop in one process (FEPF + PD + rigid body).",
@@ -90,7 +91,7 @@ def main(argv=None) -> int:
         print(f"attitude-offline: error: {err}", file=sys.stderr)
         return 2
     run = run_closed_loop(scenario)
-    summary = summarize(run)
+    summary = summarize(run).to_json()
     try:
         write_run(run, summary, args.out)
     except OSError as err:

@@ -30,6 +30,7 @@ import os
 import shlex
 import signal
 import sys
+from collections.abc import Sequence
 
 from ament_index_python import PackageNotFoundError, get_package_prefix
 
@@ -50,25 +51,26 @@ class PackageNotFound(Exception):
 class MultipleExecutables(Exception):
     """More than one executable file of that name under ``<prefix>/lib/<package>``."""
 
-    def __init__(self, paths):
+    def __init__(self, paths: Sequence[str]) -> None:
         super().__init__(paths)
         self.paths = list(paths)
 
 
-def package_prefix(package_name):
+def package_prefix(package_name: str) -> str:
     """Install prefix of ``package_name`` from the ament index (``AMENT_PREFIX_PATH``)."""
     if not os.environ.get('AMENT_PREFIX_PATH'):  # get_package_prefix would raise OSError
         raise PackageNotFound(package_name)
     try:
-        return get_package_prefix(package_name)
+        prefix: str = get_package_prefix(package_name)
+        return prefix
     except (PackageNotFoundError, ValueError):
         raise PackageNotFound(package_name) from None
 
 
-def executable_paths(package_name):
+def executable_paths(package_name: str) -> list[str]:
     """Every executable file under ``<prefix>/lib/<package_name>``, in a stable order."""
     base = os.path.join(package_prefix(package_name), 'lib', package_name)
-    found = []
+    found: list[str] = []
     for dirpath, dirnames, filenames in os.walk(base):
         dirnames[:] = sorted(d for d in dirnames if not d.startswith('.'))
         for name in sorted(filenames):
@@ -78,7 +80,7 @@ def executable_paths(package_name):
     return found
 
 
-def find_executable(package_name, executable_name):
+def find_executable(package_name: str, executable_name: str) -> str | None:
     """Path of the executable, None if there is none; raises on several or no package."""
     matches = [p for p in executable_paths(package_name) if os.path.basename(p) == executable_name]
     if len(matches) > 1:
@@ -86,7 +88,7 @@ def find_executable(package_name, executable_name):
     return matches[0] if matches else None
 
 
-def _run_parser():
+def _run_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='ros2 run',
         description='Run a package specific executable (minimal shim of ros2run: '
@@ -105,7 +107,7 @@ def _run_parser():
     return parser
 
 
-def _exec(cmd):
+def _exec(cmd: list[str]) -> None:
     """Replace this process with ``cmd`` (``cmd[0]`` is looked up on PATH if it has no '/')."""
     sys.stdout.flush()
     sys.stderr.flush()
@@ -117,7 +119,7 @@ def _exec(cmd):
     os.execvp(cmd[0], cmd)
 
 
-def run(args):
+def run(args: argparse.Namespace) -> int:
     try:
         path = find_executable(args.package_name, args.executable_name)
     except PackageNotFound:
@@ -147,7 +149,7 @@ def run(args):
     return 1  # not reached
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in ('-h', '--help'):
         print(USAGE, end='')

@@ -1,11 +1,11 @@
 """Rigid-body spacecraft simulator node (``ros2 run spacecraft_sim rigid_body_sim``).
 
-Wiring only: :class:`attitude_core.sim_stepper.SimStepper` decides (lockstep and real
+Wiring only: :class:`attitude_core.runtime.sim_stepper.SimStepper` decides (lockstep and real
 time, eqs. 3-4). Each step ``k`` publishes, with one stamp, the attitude (frame
 ``inertial``), ``omega_BN`` (frame ``body``) and, in lockstep only, ``/clock`` (``k dt``);
 it takes ``/controller/torque`` and publishes the torque applied over ``[t_k, t_k+1)``
 on ``/spacecraft/applied_torque``, stamped ``k``. It waits for the graph of
-:func:`attitude_core.node_graph.readiness` first. Exit 0 at the scenario's end, 1 when
+:func:`attitude_core.contract.node_graph.readiness` first. Exit 0 at the scenario's end, 1 when
 the graph never connects.
 """
 
@@ -14,15 +14,16 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
-from rclpy.node import Node
 from rosgraph_msgs.msg import Clock as ClockMsg
 
-from attitude_core import node_graph
-from attitude_core.sim_stepper import Action, Decision, SimStepper
+from attitude_core.contract import node_graph
+from attitude_core.runtime.sim_stepper import Action, Decision, SimStepper
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
+from attitude_ros.endpoints import message, publisher, subscription
+from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
@@ -30,31 +31,23 @@ from attitude_ros.runner import run
 LOOP_PERIOD_S = 0.02  # start-up polling and the lockstep torque-deadline check, s
 
 
-class RigidBodySimNode(Node):
+class RigidBodySimNode(StackNode):
     def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.SIMULATOR.node_name, **kwargs)
+        super().__init__(node_graph.SIMULATOR, **kwargs)
         own, sc = declare_scenario_node(self, node_graph.SIMULATOR.parameters)
-        self.scenario, self.time_mode = sc, own["time_mode"]
-        self.ready = node_graph.readiness(own["lockstep.expected_subscribers"])
+        self.scenario, self.time_mode = sc, own.time_mode
+        self.ready = node_graph.readiness(own.lockstep.expected_subscribers)
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
-        self.done, self.exit_code = False, 0
-        pub = lambda kind, name: self.create_publisher(kind, name, c.qos(c.topic(name)))
-        self.pub_clock, self.pub_att = pub(ClockMsg, c.CLOCK), pub(QuaternionStamped, c.ATTITUDE)
-        self.pub_rate = pub(Vector3Stamped, c.ANGULAR_VELOCITY)
-        self.pub_applied = pub(WrenchStamped, c.APPLIED_TORQUE)
-        self.sub_torque = self.create_subscription(
-            WrenchStamped, c.TORQUE, self.on_torque, c.qos(c.topic(c.TORQUE), subscriber=True)
-        )
-        self.msg_clock, self.msg_att = ClockMsg(), QuaternionStamped()
-        self.msg_rate = Vector3Stamped()
-        self.msg_att.header.frame_id = c.INERTIAL_FRAME
-        self.msg_rate.header.frame_id = c.BODY_FRAME
-        self.msg_applied = WrenchStamped()
-        self.msg_applied.header.frame_id = c.BODY_FRAME
+        self.pub_clock, self.pub_att = publisher(self, c.CLOCK), publisher(self, c.ATTITUDE)
+        self.pub_rate = publisher(self, c.ANGULAR_VELOCITY)
+        self.pub_applied = publisher(self, c.APPLIED_TORQUE)
+        self.sub_torque = subscription(self, c.TORQUE, self.on_torque)
+        self.msg_clock, self.msg_att = ClockMsg(), message(c.ATTITUDE)
+        self.msg_rate, self.msg_applied = message(c.ANGULAR_VELOCITY), message(c.APPLIED_TORQUE)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.guard = RunGuard(
             self,
-            node_graph.SIMULATOR,
+            self.spec,
             sc,
             lambda code, reason: self.finish(code),
             stamp_ns=lambda: self.stepper.state_stamp or 0,
@@ -62,7 +55,7 @@ class RigidBodySimNode(Node):
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
             f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "
-            f"waiting for {own['lockstep.expected_subscribers']} state listeners and a "
+            f"waiting for {own.lockstep.expected_subscribers} state listeners and a "
             "torque publisher"
         )
 

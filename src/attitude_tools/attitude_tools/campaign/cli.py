@@ -23,15 +23,21 @@ import shutil
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from types import FrameType
+from typing import TYPE_CHECKING, Any, TextIO
 
-from ..strict_json import dump_strict
+from attitude_tools.output.strict_json import dump_strict
+
 from .progress import Progress
 from .spec import CampaignSpec, SpecError, load_spec
 from .stats import summarize_campaign, worst_runs
 from .store import PartWriter, done_tasks, read_parts, write_table
 from .task import TIMING_COLUMNS, reproducer, run_task
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 __all__ = ["main", "run_campaign", "CONNECT_TIMEOUT_S", "WORST"]
 
@@ -55,26 +61,28 @@ def _json_ready(value: Any) -> Any:
     return value
 
 
-def _connect(workers: int | None, scheduler: str | None):
+def _connect(workers: int | None, scheduler: str | None) -> tuple[Client, str]:
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
         try:
-            return Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s"), f"scheduler {scheduler}"
+            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call]
+            return client, f"scheduler {scheduler}"
         except (OSError, TimeoutError, ValueError) as exc:
             raise CampaignError(
                 f"--scheduler {scheduler}: no Dask scheduler answered within "
                 f"{CONNECT_TIMEOUT_S:g} s ({exc})"
             ) from exc
     n = workers or os.cpu_count() or 1
-    cluster = LocalCluster(
+    cluster = LocalCluster(  # type: ignore[no-untyped-call]
         n_workers=n,
         threads_per_worker=1,
         processes=True,
         dashboard_address=None,
         silence_logs=logging.CRITICAL,  # worker shutdown chatter is not the user's concern
     )
-    return Client(cluster), f"LocalCluster of {n} worker process(es)"
+    client = Client(cluster)  # type: ignore[no-untyped-call]
+    return client, f"LocalCluster of {n} worker process(es)"
 
 
 def _prepare_out(spec: CampaignSpec, out: Path, resume: bool) -> None:
@@ -97,10 +105,12 @@ def _prepare_out(spec: CampaignSpec, out: Path, resume: bool) -> None:
             )
 
 
-def _finish(spec: CampaignSpec, out: Path, info: dict[str, Any], log) -> dict[str, Any]:
+def _finish(
+    spec: CampaignSpec, out: Path, info: dict[str, Any], log: Callable[[str], None]
+) -> dict[str, Any]:
     frame = read_parts(out)
     write_table(frame, out / "runs.parquet")
-    summary = summarize_campaign(frame) | {"campaign": info}
+    summary: dict[str, Any] = summarize_campaign(frame) | {"campaign": info}
     worst = worst_runs(frame, WORST)
     repro = out / "reproducers"
     tmp = out / ".reproducers.tmp"
@@ -137,8 +147,8 @@ def run_campaign(
     workers: int | None = None,
     scheduler: str | None = None,
     resume: bool = False,
-    log=print,
-    progress_stream=sys.stderr,
+    log: Callable[[str], None] = print,
+    progress_stream: TextIO = sys.stderr,
 ) -> int:
     """The campaign (see the module docstring); returns the exit code."""
     _prepare_out(spec, out, resume)
@@ -184,7 +194,13 @@ def run_campaign(
     return 0
 
 
-def _run_tasks(client, spec: CampaignSpec, todo, writer: PartWriter, progress: Progress) -> bool:
+def _run_tasks(
+    client: Client,
+    spec: CampaignSpec,
+    todo: list[tuple[int, str]],
+    writer: PartWriter,
+    progress: Progress,
+) -> bool:
     """Run ``todo``; True when interrupted. Rows reach disk within :data:`FLUSH_S`."""
     from distributed import as_completed
 
@@ -204,7 +220,7 @@ def _run_tasks(client, spec: CampaignSpec, todo, writer: PartWriter, progress: P
     flushed = time.monotonic()
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
-        for future in as_completed(futures):
+        for future in as_completed(futures):  # type: ignore[no-untyped-call]
             row = future.result()  # a task that failed its retries raises here
             buffer.append(row)
             progress.update(row["outcome"])
@@ -213,7 +229,7 @@ def _run_tasks(client, spec: CampaignSpec, todo, writer: PartWriter, progress: P
                 buffer, flushed = [], time.monotonic()
     except KeyboardInterrupt:
         writer.write(buffer)
-        client.cancel(futures)
+        client.cancel(futures)  # type: ignore[no-untyped-call]
         return True
     finally:
         signal.signal(signal.SIGTERM, previous)
@@ -221,14 +237,14 @@ def _run_tasks(client, spec: CampaignSpec, todo, writer: PartWriter, progress: P
     return False
 
 
-def _raise_interrupt(signum, frame) -> None:
+def _raise_interrupt(signum: int, frame: FrameType | None) -> None:
     raise KeyboardInterrupt
 
 
-def _close(client) -> None:
+def _close(client: Client) -> None:
     cluster = getattr(client, "cluster", None)
     try:
-        client.close(timeout=10)
+        client.close(timeout=10)  # type: ignore[no-untyped-call]
     finally:
         if cluster is not None:
             cluster.close(timeout=10)

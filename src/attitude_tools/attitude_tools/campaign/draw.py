@@ -4,15 +4,38 @@ The random stream of run ``i`` is ``numpy.random.default_rng([seed, i])``, so a 
 draws the same scenario whatever the worker, the partitioning or the order. Every draw
 goes through the one scenario loader (``loads_scenario``); a draw whose start or goal
 lies within ``min_end_margin_deg`` of a constraint boundary (a keep-out cone, or the rim
-of a keep-in cone; checked first, on the drawn values), or that the loader refuses, is
-counted and redrawn.
+of a keep-in cone), or that the loader refuses, is counted and redrawn.
 
-The stream is consumed in a fixed order: instrument and object counts, boresights and
-half-angles, object directions, start and goal, then the optional dispersions (inertia,
-initial rate, actuators) and last the keep-in cones (count, then per cone a body axis,
-an inertial direction, both uniform on the unit sphere, and a largest angle uniform in
-``max_angle_deg``). An optional dispersion that the SPEC does not give draws nothing, so
-adding one to the list never changes the runs of a SPEC without it.
+The end-margin check (:func:`_end_margin_deg`) has two paths. On a *plain* draw (every
+bright object a fixed inertial direction, every instrument avoiding every object by its
+``half_angle_deg``, every keep-in direction fixed) it is checked first, on the drawn
+values, before the loader. On a draw with a real sky (ephemeris bodies, turning objects,
+per-object ``exclusion_deg`` or ``avoids``) it is checked after the loader, on the
+loaded scenario's sky (:meth:`attitude_core.gnc.sky.Sky.constraint_margins_deg`): the
+start at ``t = 0``, the goal at every 5 s over ``[0, sim_time_s]``, so that a goal the
+moving sky covers during the run is redrawn: campaigns judge the guidance on goals that
+stay clear (blocked goals: ``scenarios/leo_goal_blocked.yaml``,
+``tests/core/test_moving_sky_guidance.py``). On that path a start inside a cone is
+refused by the loader (counted as refused, not as too close).
+
+The stream is consumed in a fixed order, each optional dispersion only when the SPEC
+gives it:
+
+1. the instrument count, then the bright-object count (``instruments``,
+   ``bright_objects``; absent: the base scenario's group, nothing drawn);
+2. per drawn instrument a boresight and a half-angle, then per drawn object a direction;
+3. start and goal (uniform on SO(3));
+4. inertia scales (``inertia_scale``), the initial rate (``initial_rate_rad_s``), the
+   actuator limits (``actuators``: torque per axis, then rate);
+5. the keep-in cones (``keep_in``: count, then per cone a body axis, an inertial
+   direction, both uniform on the unit sphere, and a largest angle uniform in
+   ``max_angle_deg``);
+6. the sky (``sky``): the epoch (a whole second, uniform between the range's ends), the
+   orbit's RAAN, then its true anomaly (uniform, deg).
+
+A value range whose ends are equal gives its end and draws nothing (a count range is
+always drawn). An optional dispersion that the SPEC does not give draws nothing, and new
+ones come last, so adding one to the list never changes the runs of a SPEC without it.
 """
 
 from __future__ import annotations
@@ -25,15 +48,25 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from attitude_core.constraints import margins_deg_from_dcm
-from attitude_core.scenario import Scenario, ScenarioError, flatten_parameters, loads_scenario
-from attitude_core.scenario import scenario_yaml as to_yaml
-from attitude_core.scenario_schema import GROUPS
+from attitude_core.config.scenario import (
+    Scenario,
+    ScenarioError,
+    flatten_parameters,
+    loads_scenario,
+)
+from attitude_core.config.scenario import scenario_yaml as to_yaml
+from attitude_core.config.scenario_schema import GROUPS
+from attitude_core.gnc.constraints import margins_deg_from_dcm
 from attitude_core.yamlio import load_strict
 
-from .spec import MAX_REDRAWS, CampaignSpec
+from .spec import MAX_REDRAWS, CampaignSpec, utc_text
 
-__all__ = ["Draw", "base_parameters", "draw_run", "scenario_text"]
+__all__ = ["Draw", "base_parameters", "draw_run", "scenario_text", "GOAL_SAMPLE_S"]
+
+GOAL_SAMPLE_S = 5.0
+"""Spacing of the times at which a drawn goal's margin is checked on a moving sky, s."""
+# Keys of a group member that only the loaded scenario's sky can measure.
+_SKY_KEYS = ("ephemeris", "rate_inertial_rad_s", "exclusion_deg", "avoids")
 
 
 @dataclass(frozen=True)
@@ -77,23 +110,28 @@ def _uniform(rng: np.random.Generator, lo: float, hi: float) -> float:
 def _candidate(
     spec: CampaignSpec, base: dict[str, Any], i: int, rng: np.random.Generator
 ) -> dict[str, Any]:
-    # Drawn groups replace the base's; without a keep-in dispersion its cones are kept.
-    drawn = [g for g in GROUPS if g != "keep_in" or spec.keep_in_count is not None]
+    # Drawn groups replace the base's; a group the SPEC does not disperse is kept.
+    drawn = spec.drawn_groups
     flat = {k: v for k, v in base.items() if k.split(".", 1)[0] not in drawn}
     flat["scenario_name"] = f"{spec.name}_{i}"
     if spec.sim_time_s is not None:
         flat["sim_time_s"] = spec.sim_time_s
-    n_inst = int(rng.integers(spec.instrument_count[0], spec.instrument_count[1] + 1))
-    n_obj = int(rng.integers(spec.object_count[0], spec.object_count[1] + 1))
-    flat["instruments.names"] = [f"instrument_{k}" for k in range(n_inst)]
-    for k in range(n_inst):
-        flat[f"instruments.instrument_{k}.boresight_body"] = _unit(rng)
-        flat[f"instruments.instrument_{k}.half_angle_deg"] = _uniform(
-            rng, spec.half_angle_deg.lo, spec.half_angle_deg.hi
-        )
-    flat["bright_objects.names"] = [f"object_{k}" for k in range(n_obj)]
-    for k in range(n_obj):
-        flat[f"bright_objects.object_{k}.direction_inertial"] = _unit(rng)
+    n_inst = n_obj = 0
+    if spec.instrument_count is not None:
+        n_inst = int(rng.integers(spec.instrument_count[0], spec.instrument_count[1] + 1))
+    if spec.object_count is not None:
+        n_obj = int(rng.integers(spec.object_count[0], spec.object_count[1] + 1))
+    if spec.instrument_count is not None and spec.half_angle_deg is not None:
+        flat["instruments.names"] = [f"instrument_{k}" for k in range(n_inst)]
+        for k in range(n_inst):
+            flat[f"instruments.instrument_{k}.boresight_body"] = _unit(rng)
+            flat[f"instruments.instrument_{k}.half_angle_deg"] = _uniform(
+                rng, spec.half_angle_deg.lo, spec.half_angle_deg.hi
+            )
+    if spec.object_count is not None:
+        flat["bright_objects.names"] = [f"object_{k}" for k in range(n_obj)]
+        for k in range(n_obj):
+            flat[f"bright_objects.object_{k}.direction_inertial"] = _unit(rng)
     flat["initial_mrp"] = [float(x) for x in Rotation.random(rng=rng).as_mrp()]
     flat["desired_mrp"] = [float(x) for x in Rotation.random(rng=rng).as_mrp()]
     if spec.inertia_scale is not None:
@@ -124,13 +162,43 @@ def _candidate(
             flat[f"keep_in.keep_in_{k}.max_angle_deg"] = _uniform(
                 rng, spec.keep_in_max_angle_deg.lo, spec.keep_in_max_angle_deg.hi
             )
+    if spec.sky_epoch_s is not None:
+        lo, hi = spec.sky_epoch_s
+        flat["epoch_utc"] = utc_text(int(rng.integers(lo, hi + 1)) if hi > lo else lo)
+    if spec.sky_raan_deg is not None:
+        flat["orbit.raan_deg"] = _uniform(rng, spec.sky_raan_deg.lo, spec.sky_raan_deg.hi)
+    if spec.sky_true_anomaly_deg is not None:
+        flat["orbit.true_anomaly_deg"] = _uniform(
+            rng, spec.sky_true_anomaly_deg.lo, spec.sky_true_anomaly_deg.hi
+        )
     return flat
 
 
-def _end_margin_deg(flat: dict[str, Any]) -> float:
+def _plain(flat: dict[str, Any]) -> bool:
+    """Whether the drawn values alone give the exact margins: fixed inertial objects and
+    keep-in directions, each instrument avoiding every object by its half-angle."""
+    for key in flat:
+        parts = key.split(".")
+        if parts[0] in GROUPS and len(parts) > 2 and parts[2] in _SKY_KEYS:
+            return False
+    return all(f"instruments.{n}.half_angle_deg" in flat for n in flat["instruments.names"])
+
+
+def _end_margin_deg(flat: dict[str, Any], scenario: Scenario | None = None) -> float:
     """The smallest margin of the drawn start and goal attitudes over every constraint:
-    keep-out (eq. 5) and keep-in (``max_angle_deg`` minus the axis' angle to its
-    direction)."""
+    keep-out (eq. 5, from the limb) and keep-in (``max_angle_deg`` minus the axis' angle
+    to its direction).
+
+    A plain draw (:func:`_plain`) is measured on the drawn values, before the loader;
+    any other on ``scenario`` (the loaded draw): the start at ``t = 0``, the goal at every
+    :data:`GOAL_SAMPLE_S` over ``[0, sim_time_s]`` (the module docstring says why)."""
+    if not _plain(flat):
+        if scenario is None:
+            raise ValueError(
+                "a draw with ephemeris or moving objects, or per-object exclusions, is "
+                "measured on its loaded scenario"
+            )
+        return _sky_end_margin_deg(scenario)
     inst = flat["instruments.names"]
     objs = flat["bright_objects.names"]
     s = np.array([flat[f"instruments.{n}.boresight_body"] for n in inst], dtype=float)
@@ -149,6 +217,14 @@ def _end_margin_deg(flat: dict[str, Any]) -> float:
     return smallest
 
 
+def _sky_end_margin_deg(sc: Scenario) -> float:
+    """The start's margin at ``t = 0`` and the goal's smallest over the run, on the sky."""
+    t = np.append(np.arange(0.0, sc.sim_time_s, GOAL_SAMPLE_S), sc.sim_time_s)
+    goal = np.broadcast_to(np.asarray(sc.desired_mrp, dtype=float), (len(t), 3))
+    start = sc.sky.constraint_margins_deg(0.0, np.asarray(sc.initial_mrp, dtype=float))
+    return min(float(start.min()), float(sc.sky.constraint_margins_deg(t, goal).min()))
+
+
 def scenario_text(flat: dict[str, Any]) -> str:
     """A complete scenario file for drawn parameters."""
     return to_yaml(flat)
@@ -163,13 +239,17 @@ def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int, variant: str | No
         flat = _candidate(spec, base, i, rng)
         if variant is not None:
             flat["planner.variant"] = variant
-        if _end_margin_deg(flat) < spec.min_end_margin_deg:
+        plain = _plain(flat)
+        if plain and _end_margin_deg(flat) < spec.min_end_margin_deg:
             close += 1  # cheap check first: the loader would refuse one inside a cone
             continue
         try:
             sc = loads_scenario(scenario_text(flat), f"<{spec.name} run {i}>")
         except ScenarioError:
             refused += 1
+            continue
+        if not plain and _end_margin_deg(flat, sc) < spec.min_end_margin_deg:
+            close += 1  # a moving sky: measured on the loaded scenario's
             continue
         return Draw(i, flat, sc, refused, close)
     raise RuntimeError(

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import base64
 import io
+import os
 from html import escape as e
 from typing import Any
 
@@ -19,8 +20,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
-from .task import OUTCOMES
+from .task import FAILURES, OUTCOMES
 
 __all__ = ["write_report"]
 
@@ -30,8 +32,10 @@ OUTCOME_COLORS = {
     "violated": "#d62728",
     "stuck": "#ff7f0e",
     "infeasible": "#9467bd",
+    "blocked": "#8c564b",
     "not_reached": "#7f7f7f",
 }
+assert set(OUTCOME_COLORS) == set(OUTCOMES), "one colour per outcome of task.OUTCOMES"
 CSS = """
 body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 0 auto;
        max-width: 1180px; padding: 1.2em 1.6em 3em; color: #1d2125; line-height: 1.4; }
@@ -42,7 +46,7 @@ img { max-width: 100%; } .bad { color: #b3261e; font-weight: 600; }
 """
 
 
-def _png(fig) -> str:
+def _png(fig: Figure) -> str:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
     plt.close(fig)
@@ -148,8 +152,8 @@ def _worst_table(worst: pd.DataFrame) -> str:
     return f"<table><tr>{head}</tr>{''.join(rows)}</table>"
 
 
-def write_report(path, frame: pd.DataFrame, summary: dict[str, Any], worst: pd.DataFrame,
-                 info: dict[str, Any]) -> None:  # fmt: skip
+def write_report(path: str | os.PathLike[str], frame: pd.DataFrame, summary: dict[str, Any],
+                 worst: pd.DataFrame, info: dict[str, Any]) -> None:  # fmt: skip
     """Write the page to ``path``."""
     title = f"Campaign {info['name']}: {info['runs']} runs x {len(info['variants'])} variant(s)"
     parts = [
@@ -169,7 +173,7 @@ def write_report(path, frame: pd.DataFrame, summary: dict[str, Any], worst: pd.D
         _rates_by(frame, "n_instruments", "instruments"),
         *_keep_in_rates(frame),
         f"<h2>The {len(worst)} worst runs</h2>",
-        "<p>Failures first (violated, infeasible, stuck, not reached), then the lowest "
+        f"<p>Failures first ({', '.join(FAILURES)}), then the lowest "
         "body margin, then the highest rotation ratio. Each reproducer is a complete "
         "scenario file for <code>attitude-offline</code> or <code>attitude-run</code>.</p>",
         _worst_table(worst),

@@ -18,29 +18,58 @@ campaigns")::
         initial_rate_rad_s: 0.0                # optional
         actuators: {max_torque_nm: [0.01, 0.1], max_rate_rad_s: [0.02, 0.1]}  # optional
         keep_in: {count: [1, 2], max_angle_deg: [60.0, 120.0]}  # optional
+        sky:                                   # optional; the base must have an orbit
+          epoch_utc: ["2026-01-01T00:00:00Z", "2027-01-01T00:00:00Z"]
+          raan_deg: [0.0, 360.0]
+          true_anomaly_deg: [0.0, 360.0]
       planner_variants: [improved, paper]
 
-Without ``dispersions.keep_in`` the base scenario's keep-in cones (if any) are kept and
-no random number is drawn for them, so a SPEC draws the same runs as before the key
-existed.
+``instruments``, ``bright_objects`` and ``keep_in`` are optional: without one, the base
+scenario's group is kept as it is (with its per-object ``exclusion_deg``, ``avoids`` and
+``ephemeris`` keys) and no random number is drawn for it, so a SPEC draws the same runs
+as before an optional key existed. Drawn bright objects are plain inertial directions,
+so they need instruments that avoid them with a ``half_angle_deg``: drawn ones, or base
+ones without per-object keys (the SPEC is refused otherwise).
+
+``sky`` draws the epoch uniformly (in whole seconds) between two ISO 8601 UTC
+date-times, and the orbit's RAAN and true anomaly uniformly (deg); each of its keys is
+optional (absent: the base's value). The other orbit elements come from the base
+scenario, which must have an orbit.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from datetime import UTC, datetime, timedelta
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from attitude_core.scenario import ScenarioError, load_scenario
+from attitude_core.config.scenario import (
+    Scenario,
+    ScenarioError,
+    flatten_parameters,
+    load_scenario,
+)
+from attitude_core.gnc.ephemeris import parse_epoch_utc
 from attitude_core.yamlio import load_strict
 
-__all__ = ["SpecError", "Range", "CampaignSpec", "load_spec", "VARIANTS", "MAX_REDRAWS"]
+__all__ = [
+    "SpecError",
+    "Range",
+    "CampaignSpec",
+    "load_spec",
+    "utc_text",
+    "VARIANTS",
+    "MAX_REDRAWS",
+]
 
 VARIANTS = ("improved", "paper")
 MAX_REDRAWS = 10_000  # per run: a dispersion that can never give a valid draw fails
+_POSIX_0 = datetime(1970, 1, 1, tzinfo=UTC)
+_SECOND = timedelta(seconds=1)
 
 
 class SpecError(ValueError):
@@ -68,9 +97,10 @@ class CampaignSpec:
     base_scenario: str  # absolute path
     sim_time_s: float | None
     min_end_margin_deg: float
-    instrument_count: tuple[int, int]
-    half_angle_deg: Range
-    object_count: tuple[int, int]
+    # Instruments and bright objects drawn per run (None: the base scenario's).
+    instrument_count: tuple[int, int] | None
+    half_angle_deg: Range | None
+    object_count: tuple[int, int] | None
     inertia_scale: Range | None
     initial_rate_std_rad_s: float
     max_torque_nm: Range | None
@@ -80,11 +110,31 @@ class CampaignSpec:
     # Keep-in cones drawn per run (None: the base scenario's, drawing nothing).
     keep_in_count: tuple[int, int] | None = None
     keep_in_max_angle_deg: Range | None = None
+    # The sky drawn per run (None: the base scenario's): the epoch in whole POSIX
+    # seconds (UTC, no leap seconds), the orbit's RAAN and true anomaly in deg.
+    sky_epoch_s: tuple[int, int] | None = None
+    sky_raan_deg: Range | None = None
+    sky_true_anomaly_deg: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
         """Every ``(run, variant)`` of the campaign, in order."""
         return [(i, v) for i in range(self.runs) for v in self.planner_variants]
+
+    @property
+    def drawn_groups(self) -> tuple[str, ...]:
+        """The scenario groups drawn per run (the others are the base scenario's)."""
+        drawn = {
+            "instruments": self.instrument_count is not None,
+            "bright_objects": self.object_count is not None,
+            "keep_in": self.keep_in_count is not None,
+        }
+        return tuple(g for g, d in drawn.items() if d)
+
+
+def utc_text(posix_s: int) -> str:
+    """``YYYY-MM-DDThh:mm:ssZ`` of whole POSIX seconds."""
+    return (_POSIX_0 + posix_s * _SECOND).strftime("%Y-%m-%dT%H:%M:%SZ")
 
 
 _TOP = {"name", "runs", "seed", "base_scenario", "sim_time_s", "dispersions", "planner_variants"}
@@ -97,7 +147,11 @@ _DISPERSIONS = {
     "initial_rate_rad_s",
     "actuators",
     "keep_in",
+    "sky",
 }
+_SKY = {"epoch_utc", "raan_deg", "true_anomaly_deg"}
+# Keys of an instrument that name the base scenario's bright objects.
+_PER_OBJECT = ("exclusion_deg", "avoids")
 
 
 class _Reader:
@@ -126,7 +180,7 @@ class _Reader:
         return x
 
     def integer(self, value: Any, key: str, lo: int) -> int:
-        if isinstance(value, bool) or not isinstance(value, int):
+        if not isinstance(value, int) or isinstance(value, bool):
             raise self.fail(key, f"expected an integer, got {value!r}")
         if value < lo:
             raise self.fail(key, f"must be >= {lo}, got {value}")
@@ -140,6 +194,31 @@ class _Reader:
         if a > b:
             raise self.fail(key, f"low {a:g} is above high {b:g}")
         return Range(a, b)
+
+    def epoch(self, value: Any, key: str) -> datetime:
+        """An ISO 8601 UTC date-time (a YAML timestamp too), timezone-aware."""
+        if isinstance(value, datetime):
+            value = value.isoformat()
+        if not isinstance(value, str):
+            raise self.fail(key, f"expected an ISO 8601 UTC date-time string, got {value!r}")
+        try:
+            parse_epoch_utc(value)  # the scenario loader's rules (format, year range)
+            when = datetime.fromisoformat(value.strip().replace("Z", "+00:00"))
+        except ValueError as exc:
+            raise self.fail(key, str(exc)) from None
+        return when.replace(tzinfo=UTC) if when.tzinfo is None else when.astimezone(UTC)
+
+    def epoch_range(self, value: Any, key: str) -> tuple[int, int]:
+        """``[from, to]`` as the first and last whole POSIX second within it."""
+        if not isinstance(value, list) or len(value) != 2:
+            raise self.fail(key, f"expected [from, to] (ISO 8601 UTC date-times), got {value!r}")
+        a, b = self.epoch(value[0], key), self.epoch(value[1], key)
+        if a > b:
+            raise self.fail(key, f"from {a.isoformat()} is after to {b.isoformat()}")
+        lo, hi = -((_POSIX_0 - a) // _SECOND), (b - _POSIX_0) // _SECOND
+        if lo > hi:
+            raise self.fail(key, "the range holds no whole second")
+        return lo, hi
 
     def count(self, value: Any, key: str, lo: int = 1) -> tuple[int, int]:
         if not isinstance(value, list) or len(value) != 2:
@@ -178,7 +257,7 @@ def load_spec(path: str | Path) -> CampaignSpec:
         raise r.fail("campaign.base_scenario", f"expected a path, got {base!r}")
     base_path = (Path(path).resolve().parent / base).resolve()
     try:
-        load_scenario(base_path)
+        base_scenario = load_scenario(base_path)
     except ScenarioError as exc:
         raise r.fail("campaign.base_scenario", f"not a valid scenario: {exc}") from exc
     sim_time = None
@@ -189,15 +268,20 @@ def load_spec(path: str | Path) -> CampaignSpec:
     if d.get("attitudes", "uniform") != "uniform":
         raise r.fail(f"{key}.attitudes", f"only 'uniform' is known, got {d['attitudes']!r}")
     margin = r.number(d.get("min_end_margin_deg", 3.0), f"{key}.min_end_margin_deg", 0.0)
-    inst = r.mapping(d.get("instruments", {}), f"{key}.instruments", {"count", "half_angle_deg"})
-    inst_count = r.count(inst.get("count", [1, 3]), f"{key}.instruments.count")
-    half = r.pair(
-        inst.get("half_angle_deg", [10.0, 35.0]), f"{key}.instruments.half_angle_deg", 0.0, True
-    )
-    if half.hi >= 90.0:
-        raise r.fail(f"{key}.instruments.half_angle_deg", "must be below 90 deg")
-    objs = r.mapping(d.get("bright_objects", {}), f"{key}.bright_objects", {"count"})
-    obj_count = r.count(objs.get("count", [2, 6]), f"{key}.bright_objects.count")
+    inst_count = half = obj_count = None
+    if d.get("instruments") is not None:
+        inst = r.mapping(d["instruments"], f"{key}.instruments", {"count", "half_angle_deg"})
+        inst_count = r.count(inst.get("count", [1, 3]), f"{key}.instruments.count")
+        half = r.pair(
+            inst.get("half_angle_deg", [10.0, 35.0]), f"{key}.instruments.half_angle_deg", 0.0, True
+        )
+        if half.hi >= 90.0:
+            raise r.fail(f"{key}.instruments.half_angle_deg", "must be below 90 deg")
+    if d.get("bright_objects") is not None:
+        objs = r.mapping(d["bright_objects"], f"{key}.bright_objects", {"count"})
+        obj_count = r.count(objs.get("count", [2, 6]), f"{key}.bright_objects.count")
+        if inst_count is None:
+            _check_kept_instruments(r, base_scenario, f"{key}.bright_objects")
     scale = None
     if d.get("inertia_scale") is not None:
         scale = r.pair(d["inertia_scale"], f"{key}.inertia_scale", 0.0, lo_open=True)
@@ -219,6 +303,23 @@ def load_spec(path: str | Path) -> CampaignSpec:
         keep_in_angle = r.pair(ki["max_angle_deg"], f"{key}.keep_in.max_angle_deg", 0.0, True)
         if keep_in_angle.hi >= 180.0:
             raise r.fail(f"{key}.keep_in.max_angle_deg", "must be below 180 deg")
+    epoch = raan = anomaly = None
+    if d.get("sky") is not None:
+        sky = r.mapping(d["sky"], f"{key}.sky", _SKY)
+        if not sky:
+            raise r.fail(f"{key}.sky", f"give at least one of {sorted(_SKY)}")
+        if base_scenario.orbit is None:
+            raise r.fail(
+                f"{key}.sky",
+                f"the base scenario {base} has no orbit (orbit.*): the drawn sky takes its "
+                "other orbit elements from it",
+            )
+        if sky.get("epoch_utc") is not None:
+            epoch = r.epoch_range(sky["epoch_utc"], f"{key}.sky.epoch_utc")
+        if sky.get("raan_deg") is not None:
+            raan = r.pair(sky["raan_deg"], f"{key}.sky.raan_deg", -math.inf)
+        if sky.get("true_anomaly_deg") is not None:
+            anomaly = r.pair(sky["true_anomaly_deg"], f"{key}.sky.true_anomaly_deg", -math.inf)
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)
@@ -248,4 +349,26 @@ def load_spec(path: str | Path) -> CampaignSpec:
         source=source,
         keep_in_count=keep_in_count,
         keep_in_max_angle_deg=keep_in_angle,
+        sky_epoch_s=epoch,
+        sky_raan_deg=raan,
+        sky_true_anomaly_deg=anomaly,
     )
+
+
+def _check_kept_instruments(r: _Reader, base: Scenario, key: str) -> None:
+    """Drawn bright objects with the base's instruments: each instrument must avoid every
+    object by its ``half_angle_deg``, naming none of the base's objects."""
+    flat = flatten_parameters(
+        load_strict(Path(base.source).read_text(encoding="utf-8"))["/**"]["ros__parameters"]
+    )
+    for inst in base.instruments:
+        prefix = f"instruments.{inst.name}."
+        named = [k for k in flat if k.startswith(prefix) and k.split(".")[2] in _PER_OBJECT]
+        if inst.half_angle_deg is None or named:
+            what = f"has {named[0]}" if named else "has no half_angle_deg"
+            raise r.fail(
+                key,
+                f"the base scenario's instrument {inst.name!r} {what}: drawn bright objects "
+                "need instruments that avoid them by a half-angle (give "
+                "dispersions.instruments too)",
+            )

@@ -12,33 +12,34 @@ import math
 import time
 from typing import Any
 
-import numpy as np
-
 from attitude_core.closed_loop import run_closed_loop
-from attitude_core.mrp import principal_angle, relative
-from attitude_core.status import PlannerStatus
-from attitude_core.trajectory import summarize
+from attitude_core.gnc.mrp import principal_angle, relative
+from attitude_core.record.summary import summarize
 
 from .draw import base_parameters, draw_run, scenario_text
 from .spec import CampaignSpec
 
 __all__ = ["OUTCOMES", "FAILURES", "TIMING_COLUMNS", "outcome_of", "run_task", "reproducer"]
 
-OUTCOMES = ("reached", "violated", "stuck", "infeasible", "not_reached")
-FAILURES = ("violated", "infeasible", "stuck", "not_reached")  # worst first
+OUTCOMES = ("reached", "violated", "stuck", "infeasible", "blocked", "not_reached")
+FAILURES = ("violated", "infeasible", "blocked", "stuck", "not_reached")  # worst first
 TIMING_COLUMNS = ("planner_step_us_median", "wall_time_s", "loop_s", "metrics_s", "task_s")
 
 
-def outcome_of(summary: dict[str, Any], statuses: np.ndarray) -> str:
-    """``violated`` (the body inside a keep-out cone or outside a keep-in cone, dense),
-    else ``reached``, else the planner's ``infeasible`` or ``stuck``, else
-    ``not_reached``."""
+def outcome_of(summary: dict[str, Any]) -> str:
+    """The outcome of a run from its summary (``summarize(run).to_json()``, margins
+    against the sky of each instant): ``violated`` (the body inside a keep-out cone or
+    outside a keep-in cone, dense), else ``reached``, else what the planner reported:
+    ``infeasible``, ``blocked`` (the moving sky covered the goal, status
+    ``PlannerStatus.BLOCKED``) or ``stuck``, else ``not_reached``."""
     if summary["min_margin_deg"] <= 0.0:
         return "violated"
     if summary["reached"]:
         return "reached"
-    if np.any(statuses == PlannerStatus.INFEASIBLE.code):
+    if summary["planner_infeasible"]:
         return "infeasible"
+    if summary["planner_blocked"]:
+        return "blocked"
     if summary["planner_stuck"]:
         return "stuck"
     return "not_reached"
@@ -66,7 +67,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
     t1 = time.perf_counter()
     run = run_closed_loop(sc)
     t2 = time.perf_counter()
-    summary = summarize(run)
+    summary = summarize(run).to_json()
     t3 = time.perf_counter()
     eigen_deg = math.degrees(float(principal_angle(relative(sc.initial_mrp, sc.desired_mrp))))
     rotation = summary["rotation_deg"]
@@ -86,7 +87,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "eigenaxis_deg": eigen_deg,
         "max_torque_nm_min": float(min(torque)),
         "max_rate_rad_s": math.nan if act.max_rate_rad_s is None else act.max_rate_rad_s,
-        "outcome": outcome_of(summary, run.planner_status),
+        "outcome": outcome_of(summary),
         "t_reach_s": math.nan if summary["t_reach_s"] is None else summary["t_reach_s"],
         "min_margin_deg": summary["min_margin_deg"],
         "rotation_deg": rotation,

@@ -15,18 +15,21 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Sequence
 
-from attitude_tools.rundir import OutputDirError, check_replaceable, publish, stage
-from attitude_tools.strict_json import dump_strict
+from attitude_tools.output.rundir import OutputDirError, check_replaceable, publish, stage
+from attitude_tools.output.strict_json import dump_strict
 
-from .data import BagError, load_run
+from .data import BagError, ReportRun, load_run
 
 __all__ = ["main", "write_report", "REPORT_MARKER"]
 
 REPORT_MARKER = "report.html"
 
 
-def write_report(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> str:
+def write_report(
+    runs: Sequence[ReportRun], out_dir: str, dpi: int = 120, mrp_grid: int = 48
+) -> str:
     """Write the report of ``runs`` to ``out_dir`` atomically; return its path.
 
     An existing ``out_dir`` is replaced only when it holds a previous report.
@@ -58,7 +61,7 @@ def write_report(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> str:
     return str(out)
 
 
-def _labels(runs, given) -> None:
+def _labels(runs: Sequence[ReportRun], given: Sequence[str] | None) -> None:
     if given:
         for run, label in zip(runs, given, strict=True):
             run.label = label
@@ -67,7 +70,7 @@ def _labels(runs, given) -> None:
             run.label = f"{run.label} [{os.path.basename(run.run_dir.rstrip(os.sep))}]"
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="attitude-report",
         description="Report of a recorded run (figures, report.html, summary.json) from its "

@@ -1,6 +1,6 @@
 """A recorded run for the report: rebuilt from its bag alone, with its summary figures.
 
-The summary is ``attitude_tools.bag_run.summarize_bag`` of the run rebuilt from the bag
+The summary is ``attitude_tools.bag.run_record.summarize_bag`` of the run rebuilt from the bag
 (what ``attitude-run`` computes for ``summary.json``), plus ``time_mode``
 (``lockstep`` when every state stamp is a ``/clock`` time, ``realtime`` when the
 stamps are wall-clock times, else unknown).
@@ -11,15 +11,16 @@ from __future__ import annotations
 import math
 import os
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from attitude_core.scenario import Scenario
-from attitude_core.topics import CLOCK, stamp_ns
-from attitude_core.trajectory import RunResult
-
-from ..bag import read_bag
-from ..bag_run import BagRun, run_from_bag, summarize_bag
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.topics import CLOCK, stamp_ns
+from attitude_core.record.trajectory import RunResult
+from attitude_tools.bag.reader import read_bag
+from attitude_tools.bag.run_record import BagRun, run_from_bag, summarize_bag
 
 __all__ = ["ReportRun", "BagError", "load_run", "SUMMARY_KEYS", "PAIR_KEY"]
 
@@ -66,7 +67,7 @@ class ReportRun:
     run_dir: str
     bag_dir: str
     bag_run: BagRun
-    summary: dict  # SUMMARY_KEYS, JSON-ready (non-finite floats as None)
+    summary: dict[str, Any]  # SUMMARY_KEYS, JSON-ready (non-finite floats as None)
 
     @property
     def run(self) -> RunResult:
@@ -77,7 +78,7 @@ class ReportRun:
         return self.bag_run.run.scenario
 
 
-def _json_ready(v):
+def _json_ready(v: Any) -> Any:
     if isinstance(v, dict):
         return {k: _json_ready(x) for k, x in v.items()}
     if isinstance(v, (bool, np.bool_)):
@@ -89,7 +90,7 @@ def _json_ready(v):
     return v
 
 
-def _time_mode(bag_dir: str, stamps_ns: np.ndarray) -> str | None:
+def _time_mode(bag_dir: str, stamps_ns: npt.NDArray[np.int64]) -> str | None:
     clock = {stamp_ns(m.msg.clock) for m in read_bag(bag_dir, [CLOCK])}
     if clock and set(stamps_ns.tolist()) <= clock:
         return "lockstep"

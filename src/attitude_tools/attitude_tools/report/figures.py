@@ -18,6 +18,7 @@ against time. Their artists carry ``gid`` ``keep_in/<name>/<part>`` (``cone``,
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Any
 
 import matplotlib
@@ -26,14 +27,18 @@ matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
 import numpy as np
+import numpy.typing as npt
+from matplotlib.axes import Axes
 from matplotlib.colors import LightSource
+from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # type: ignore[import-untyped]
 
-from attitude_core.metrics import arrival_time
-from attitude_core.mrp import to_principal
+from attitude_core.gnc.mrp import Vec3, to_principal
+from attitude_core.record.metrics import arrival_time
 
+from .data import ReportRun
 from .geometry import (
     KeepIn,
     Pair,
@@ -50,12 +55,15 @@ from .geometry import (
     sky_grid,
     small_circle,
 )
+from .sky import constraint_margins_deg, draw_moving_pairs, instrument_title, pair_margins_deg
 
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.typing import RcKeyType
 
 __all__ = ["FIGURES", "render_figures"]
+
+_Floats = npt.NDArray[np.float64]
 
 # file name -> (title, what it shows); the order of the report.
 FIGURES = {
@@ -145,6 +153,11 @@ def _keep_in_label(cone: KeepIn) -> str:
 
 
 def _pair_label(pair: Pair, n_instruments: int) -> str:
+    if pair.exclusion_deg is not None:  # a body with a radius: its exclusion from the limb
+        angle = f"{pair.exclusion_deg:g} deg from the limb"
+        if n_instruments == 1:
+            return f"{pair.obj} ({angle})"
+        return f"{pair.obj} / {pair.instrument} ({angle})"
     if n_instruments == 1:
         return f"{pair.obj} (half-angle {pair.half_angle_deg:g} deg)"
     return f"{pair.obj} / {pair.instrument} ({pair.half_angle_deg:g} deg)"
@@ -153,20 +166,18 @@ def _pair_label(pair: Pair, n_instruments: int) -> str:
 class _Context:
     """What every figure needs: the runs, their distinct cones, colours and names."""
 
-    def __init__(self, runs, mrp_grid: int):
+    def __init__(self, runs: Sequence[ReportRun], mrp_grid: int) -> None:
         self.runs = runs
         self.pairs = pairs_of([r.scenario for r in runs])
-        self.n_instruments = len(
-            {(p.instrument, p.boresight_body, p.half_angle_deg) for p in self.pairs}
-        )
+        self.n_instruments = len({p.instrument_key for p in self.pairs})
         self.pair_color = {p: PAIR_COLORS[k % len(PAIR_COLORS)] for k, p in enumerate(self.pairs)}
         self.keep_ins = keep_ins_of([r.scenario for r in runs])
         self.keep_in_color = {
             c: KEEP_IN_COLORS[k % len(KEEP_IN_COLORS)] for k, c in enumerate(self.keep_ins)
         }
         self.mrp_grid = mrp_grid
-        self._surfaces = None
-        self._keep_in_surfaces = None
+        self._surfaces: list[tuple[Pair, _Floats | None]] | None = None
+        self._keep_in_surfaces: list[tuple[KeepIn, _Floats | None]] | None = None
         pts = [to_principal(r.run.sigma_bn) for r in runs]
         pts += [
             to_principal(np.array([r.scenario.initial_mrp, r.scenario.desired_mrp])) for r in runs
@@ -184,21 +195,21 @@ class _Context:
     def compare(self) -> bool:
         return len(self.runs) > 1
 
-    def surfaces(self):
+    def surfaces(self) -> list[tuple[Pair, _Floats | None]]:
         if self._surfaces is None:
             self._surfaces = [(p, mrp_surface(p, self.mrp_grid)) for p in self.pairs]
         return self._surfaces
 
-    def keep_in_surfaces(self):
+    def keep_in_surfaces(self) -> list[tuple[KeepIn, _Floats | None]]:
         if self._keep_in_surfaces is None:
             self._keep_in_surfaces = [(c, mrp_surface(c, self.mrp_grid)) for c in self.keep_ins]
         return self._keep_in_surfaces
 
-    def instruments(self):
-        """Distinct instruments (name, boresight, half-angle), in order."""
-        seen = []
+    def instruments(self) -> list[tuple[str, Vec3, float | None]]:
+        """Distinct instruments (name, boresight, half-angle or None), in order."""
+        seen: list[tuple[str, Vec3, float | None]] = []
         for p in self.pairs:
-            key = (p.instrument, p.boresight_body, p.half_angle_deg)
+            key = p.instrument_key
             if key not in seen:
                 seen.append(key)
         return seen
@@ -207,7 +218,7 @@ class _Context:
 # --- sky (right ascension / declination) ----------------------------------------------
 
 
-def _sky_axes(ax) -> None:
+def _sky_axes(ax: Axes) -> None:
     ax.set_xlim(0.0, 360.0)
     ax.set_ylim(-90.0, 90.0)
     ax.set_xticks(np.arange(0, 361, 60))
@@ -217,22 +228,28 @@ def _sky_axes(ax) -> None:
     ax.set_ylabel("declination (deg)")
 
 
-_SKY = None
+_SKY: tuple[_Floats, _Floats, _Floats] | None = None
 
 
-def _sky():
+def _sky() -> tuple[_Floats, _Floats, _Floats]:
     global _SKY
     if _SKY is None:
         _SKY = sky_grid()
     return _SKY
 
 
-def _draw_cones(ctx: _Context, ax, pairs) -> list:
-    """Filled cones with true-circle outlines and the objects; legend handles."""
+def _draw_cones(
+    ctx: _Context, ax: Axes, pairs: Iterable[Pair], boresight: bool = False
+) -> list[Artist]:
+    """Filled cones with true-circle outlines and the objects; legend handles. Moving
+    objects' cones: ``sky.draw_moving_pairs`` (with ``boresight``, the boresight at each
+    closest approach too)."""
     ra, dec, v = _sky()
     handles: list[Artist] = []
     objects: dict[tuple[float, float, float], str] = {}
-    for p in pairs:
+    fixed = [p for p in pairs if not p.moving]
+    moving = [p for p in pairs if p.moving]
+    for p in fixed:
         color = ctx.pair_color[p]
         margin = pair_margin_on_sky(p, v)
         ax.contourf(ra, dec, margin, levels=[margin.min() - 1.0, 0.0], colors=[color], alpha=0.22)
@@ -266,21 +283,30 @@ def _draw_cones(ctx: _Context, ax, pairs) -> list:
             fontsize=8,
             annotation_clip=False,
         )
-    handles.append(
-        Line2D(
-            [],
-            [],
-            marker="*",
-            color="black",
-            linestyle="none",
-            markersize=9,
-            label="bright object direction",
+    if fixed or not moving:
+        handles.append(
+            Line2D(
+                [],
+                [],
+                marker="*",
+                color="black",
+                linestyle="none",
+                markersize=9,
+                label="bright object direction",
+            )
         )
+    return handles + draw_moving_pairs(
+        ax,
+        ctx.runs,
+        moving,
+        ctx.pair_color,
+        lambda p: _pair_label(p, ctx.n_instruments),
+        _sky(),
+        boresight=boresight,
     )
-    return handles
 
 
-def _draw_keep_ins(ctx: _Context, ax, cones) -> list:
+def _draw_keep_ins(ctx: _Context, ax: Axes, cones: Sequence[KeepIn]) -> list[Artist]:
     """Keep-in cones: the allowed region lightly filled, its boundary dashed, the
     direction marked; legend handles."""
     ra, dec, v = _sky()
@@ -333,13 +359,17 @@ def _draw_keep_ins(ctx: _Context, ax, cones) -> list:
     return handles
 
 
-def fig_keepout_inertial(ctx: _Context):
+def fig_keepout_inertial(ctx: _Context) -> Figure:
     fig, ax = plt.subplots(figsize=(11.0, 4.9))
     handles = _draw_cones(ctx, ax, ctx.pairs)
     handles += _draw_keep_ins(ctx, ax, ctx.keep_ins)
     _sky_axes(ax)
     kinds = "keep-out and keep-in cones" if ctx.keep_ins else "keep-out cones"
-    ax.set_title(f"{ctx.title}: {kinds} in the inertial frame")
+    moving = " (moving objects: tracks, cones at start, closest approach, end)"
+    ax.set_title(
+        f"{ctx.title}: {kinds} in the inertial frame"
+        + (moving if any(p.moving for p in ctx.pairs) else "")
+    )
     ax.legend(
         handles=handles,
         loc="upper left",
@@ -350,11 +380,11 @@ def fig_keepout_inertial(ctx: _Context):
     return fig
 
 
-def fig_trajectory_boresight(ctx: _Context):
+def fig_trajectory_boresight(ctx: _Context) -> Figure:
     instruments = ctx.instruments()
     n = len(instruments) + len(ctx.keep_ins)
     fig, axes = plt.subplots(n, 1, figsize=(11.0, 4.5 * n + 0.7), squeeze=False)
-    run_handles = []
+    run_handles: list[Artist] = []
     for k, run in enumerate(ctx.runs):
         color = ctx.run_color(k)
         label = run.label if ctx.compare else "boresight" + (" / axis" if ctx.keep_ins else "")
@@ -366,12 +396,8 @@ def fig_trajectory_boresight(ctx: _Context):
     for ax, cone in zip(axes[len(instruments) :, 0], ctx.keep_ins, strict=True):
         _keep_in_axis_panel(ctx, ax, cone)
     for ax, (name, s_body, beta) in zip(axes[: len(instruments), 0], instruments, strict=True):
-        pairs = [
-            p
-            for p in ctx.pairs
-            if (p.instrument, p.boresight_body, p.half_angle_deg) == (name, s_body, beta)
-        ]
-        cone_handles = _draw_cones(ctx, ax, pairs)
+        pairs = [p for p in ctx.pairs if p.instrument_key == (name, s_body, beta)]
+        cone_handles = _draw_cones(ctx, ax, pairs, boresight=True)
         for k, run in enumerate(ctx.runs):
             sc = run.scenario
             match = [
@@ -383,10 +409,7 @@ def fig_trajectory_boresight(ctx: _Context):
                 continue
             _sky_track(ax, run, s_body, ctx.run_color(k))
         _sky_axes(ax)
-        ax.set_title(
-            f"{name}: boresight [{', '.join(f'{x:g}' for x in s_body)}] (body), "
-            f"half-angle {beta:g} deg"
-        )
+        ax.set_title(instrument_title(name, s_body, beta, pairs))
         ax.legend(
             handles=cone_handles,
             loc="upper left",
@@ -400,7 +423,9 @@ def fig_trajectory_boresight(ctx: _Context):
     return fig
 
 
-def _sky_track(ax, run, vector_body, color, gid: str | None = None) -> None:
+def _sky_track(
+    ax: Axes, run: ReportRun, vector_body: npt.ArrayLike, color: str, gid: str | None = None
+) -> None:
     """A body vector's inertial track over a run on the sky, with its start and goal."""
     sc = run.scenario
     track = boresight_inertial(run.run.sigma_bn, vector_body)
@@ -411,7 +436,7 @@ def _sky_track(ax, run, vector_body, color, gid: str | None = None) -> None:
     ax.plot(*goal, markerfacecolor=color, zorder=6, **GOAL)
 
 
-def _keep_in_axis_panel(ctx: _Context, ax, cone: KeepIn) -> None:
+def _keep_in_axis_panel(ctx: _Context, ax: Axes, cone: KeepIn) -> None:
     """One keep-in cone on the sky: its allowed cone and each run's axis track."""
     handles = _draw_keep_ins(ctx, ax, [cone])
     for k, run in enumerate(ctx.runs):
@@ -436,8 +461,9 @@ def _keep_in_axis_panel(ctx: _Context, ax, cone: KeepIn) -> None:
 # --- MRP space ----------------------------------------------------------------------
 
 
-def _mrp_axes(fig, ctx: _Context):
-    ax = fig.add_subplot(projection="3d", computed_zorder=False)
+def _mrp_axes(fig: Figure, ctx: _Context) -> tuple[Any, list[Artist]]:
+    """3D axes (mplot3d has no type information: Any) with the regions; legend handles."""
+    ax: Any = fig.add_subplot(projection="3d", computed_zorder=False)
     handles: list[Artist] = []
     light = LightSource(azdeg=315, altdeg=35)
     for p, surf in ctx.surfaces():
@@ -447,6 +473,7 @@ def _mrp_axes(fig, ctx: _Context):
                 facecolor=color,
                 alpha=0.6,
                 label=_pair_label(p, ctx.n_instruments)
+                + (" at t = 0" if p.moving else "")
                 + ("" if surf is not None else " (outside the unit ball)"),
             )
         )
@@ -510,7 +537,7 @@ def _mrp_axes(fig, ctx: _Context):
     return ax, handles
 
 
-def fig_keepout_mrp(ctx: _Context):
+def fig_keepout_mrp(ctx: _Context) -> Figure:
     fig = plt.figure(figsize=(8.0, 8.2))
     ax, handles = _mrp_axes(fig, ctx)
     ax.set_title(f"{ctx.title}: keep-out regions in MRP space")
@@ -524,10 +551,10 @@ def fig_keepout_mrp(ctx: _Context):
     return fig
 
 
-def fig_trajectory_mrp(ctx: _Context):
+def fig_trajectory_mrp(ctx: _Context) -> Figure:
     fig = plt.figure(figsize=(8.0, 8.6))
     ax, handles = _mrp_axes(fig, ctx)
-    traj = []
+    traj: list[Artist] = []
     for k, run in enumerate(ctx.runs):
         color = ctx.run_color(k, "black")
         sc = run.scenario
@@ -571,8 +598,8 @@ def fig_trajectory_mrp(ctx: _Context):
 # --- time histories -------------------------------------------------------------------
 
 
-def _arrival_lines(ctx: _Context, axes) -> list:
-    handles = []
+def _arrival_lines(ctx: _Context, axes: Iterable[Axes]) -> list[Artist]:
+    handles: list[Artist] = []
     for k, run in enumerate(ctx.runs):
         t_reach = run.summary.get("t_reach_s")
         if t_reach is None:
@@ -597,13 +624,13 @@ def _history(
     name: str,
     symbol: str,
     unit: str,
-    get,
+    get: Callable[[ReportRun], _Floats],
     norm_label: str,
-    norm=None,
-    target=None,
+    norm: Callable[[ReportRun], _Floats] | None = None,
+    target: Callable[[ReportRun], _Floats] | None = None,
     target_label: str = "",
-    bounds=None,
-):
+    bounds: Callable[[ReportRun], tuple[Vec3 | None, float | None]] | None = None,
+) -> Figure:
     """Components (and a norm-like panel): one panel in single mode, one per component
     when comparing runs. ``bounds(run)`` gives ``(per-component bound or None, norm
     bound or None)``, drawn as dotted lines (the actuator limits)."""
@@ -614,7 +641,7 @@ def _history(
         )
         run = ctx.runs[0]
         data = get(run)
-        handles = []
+        handles: list[Artist] = []
         for i in range(3):
             ax.plot(run.run.t, data[:, i], color=COMPONENT_COLORS[i], linewidth=1.6)
             handles.append(
@@ -684,7 +711,7 @@ def _history(
     return fig
 
 
-def _attitude_error_deg(run) -> np.ndarray:
+def _attitude_error_deg(run: ReportRun) -> _Floats:
     sc = run.scenario
     return arrival_time(
         run.run.t,
@@ -696,7 +723,7 @@ def _attitude_error_deg(run) -> np.ndarray:
     )[2]
 
 
-def fig_history_mrp(ctx: _Context):
+def fig_history_mrp(ctx: _Context) -> Figure:
     return _history(
         ctx,
         "MRPs",
@@ -710,7 +737,7 @@ def fig_history_mrp(ctx: _Context):
     )
 
 
-def fig_history_rate(ctx: _Context):
+def fig_history_rate(ctx: _Context) -> Figure:
     return _history(
         ctx,
         "angular velocity",
@@ -722,7 +749,7 @@ def fig_history_rate(ctx: _Context):
     )
 
 
-def fig_history_torque(ctx: _Context):
+def fig_history_torque(ctx: _Context) -> Figure:
     return _history(
         ctx,
         "control torque",
@@ -737,19 +764,7 @@ def fig_history_torque(ctx: _Context):
 # --- margin -------------------------------------------------------------------------
 
 
-def _run_pair_margins(run, pair: Pair):
-    """Margin (deg) against time of the run's instrument/object pair equal to ``pair``."""
-    sc = run.scenario
-    for i, nm in enumerate(sc.instrument_names):
-        for j, obj in enumerate(sc.bright_object_names):
-            if (nm, obj) == (pair.instrument, pair.obj) and np.allclose(
-                sc.directions_inertial[j], pair.direction_inertial
-            ):
-                return sc.cone_geometry().margins_deg(run.run.sigma_bn)[:, i, j]
-    return None
-
-
-def _keep_in_index(run, cone: KeepIn) -> int | None:
+def _keep_in_index(run: ReportRun, cone: KeepIn) -> int | None:
     """Index of the run's keep-in cone equal to ``cone`` (None: the run has none)."""
     sc = run.scenario
     for k, name in enumerate(sc.keep_in_names):
@@ -763,40 +778,44 @@ def _keep_in_index(run, cone: KeepIn) -> int | None:
     return None
 
 
-def _run_keep_in_margins(run, cone: KeepIn):
+def _run_keep_in_margins(run: ReportRun, cone: KeepIn) -> _Floats | None:
     """Margin (deg) against time of the run's keep-in cone equal to ``cone``."""
     k = _keep_in_index(run, cone)
     if k is None:
         return None
-    return run.scenario.cone_geometry().keep_in_margins_deg(run.run.sigma_bn)[:, k]
+    return constraint_margins_deg(run)[:, len(run.scenario.sky.pair_exclusion_deg) + k]
 
 
-def _run_margins(run, constraint: Pair | KeepIn):
+def _run_margins(run: ReportRun, constraint: Pair | KeepIn) -> _Floats | None:
     if isinstance(constraint, KeepIn):
         return _run_keep_in_margins(run, constraint)
-    return _run_pair_margins(run, constraint)
+    return pair_margins_deg(run, constraint)
 
 
-def fig_margin(ctx: _Context):
+def fig_margin(ctx: _Context) -> Figure:
     p: Pair | KeepIn | None  # a constraint, or None for the all-constraints panel
     constraints: list[Pair | KeepIn] = [*ctx.pairs, *ctx.keep_ins]
     if not ctx.compare:
         run = ctx.runs[0]
         fig, ax = plt.subplots(figsize=(9.0, 5.0))
         ax.axhspan(-180.0, 0.0, color="tab:red", alpha=0.07, linewidth=0)
-        for p in ctx.pairs:
-            m = _run_pair_margins(run, p)
+        for p in ctx.pairs:  # the cones of this one run: each has its margins
+            m = pair_margins_deg(run, p)
+            assert m is not None
             ax.plot(
                 run.run.t,
                 m,
                 color=ctx.pair_color[p],
                 linewidth=1.6,
-                label=f"{p.instrument} / {p.obj}",
+                label=p.key if not run.scenario.sky.static else f"{p.instrument} / {p.obj}",
+                gid=f"{p.key}/margin",
             )
         for c in ctx.keep_ins:
+            m = _run_keep_in_margins(run, c)
+            assert m is not None
             ax.plot(
                 run.run.t,
-                _run_keep_in_margins(run, c),
+                m,
                 color=ctx.keep_in_color[c],
                 label=c.key,
                 gid=f"{c.key}/margin",
@@ -829,10 +848,10 @@ def fig_margin(ctx: _Context):
         nrows, ncols, figsize=(6.0 * ncols, 3.3 * nrows + 0.8), squeeze=False, sharex=True
     )
     for ax, p in zip(axes.flat, panels, strict=False):
-        series = []
+        series: list[_Floats] = []
         for k, run in enumerate(ctx.runs):
             if p is None:
-                m = run.scenario.cone_geometry().min_margin_deg(run.run.sigma_bn)
+                m = constraint_margins_deg(run).min(axis=-1)
                 s = run.summary
                 ax.plot(
                     [s["t_min_margin_s"]],
@@ -850,7 +869,7 @@ def fig_margin(ctx: _Context):
                 continue
             series.append(m)
             style = KEEP_IN_LINE if isinstance(p, KeepIn) else {"linewidth": 1.5}
-            gid = f"{p.key}/margin" if isinstance(p, KeepIn) else None
+            gid = f"{p.key}/margin" if p is not None else "all/margin"
             ax.plot(run.run.t, m, color=RUN_COLORS[k], gid=gid, **style)
         ax.axhspan(-180.0, 0.0, color="tab:red", alpha=0.07, linewidth=0)
         ax.axhline(0.0, color="black", linestyle="--", linewidth=1.0)
@@ -859,8 +878,9 @@ def fig_margin(ctx: _Context):
             ax.set_title(f"all {'constraints' if ctx.keep_ins else 'pairs'}: smallest margin")
         elif isinstance(p, KeepIn):
             ax.set_title(f"{p.key} (keep-in)", color=ctx.keep_in_color[p])
-        else:
-            ax.set_title(f"{p.instrument} / {p.obj}", color=ctx.pair_color[p])
+        else:  # on a moving sky, the constraint's name
+            moving = not all(r.scenario.sky.static for r in ctx.runs)
+            ax.set_title(p.key if moving else f"{p.instrument} / {p.obj}", color=ctx.pair_color[p])
         ax.set_ylabel("margin (deg)")
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
@@ -890,14 +910,14 @@ def fig_margin(ctx: _Context):
     return fig
 
 
-def _margin_limits(ax, series) -> None:
+def _margin_limits(ax: Axes, series: Iterable[_Floats | None]) -> None:
     values = np.concatenate([np.asarray(s) for s in series if s is not None])
     lo, hi = float(np.nanmin(values)), float(np.nanmax(values))
     pad = 0.06 * max(hi - min(lo, 0.0), 1.0)
     ax.set_ylim(min(lo, 0.0) - pad, hi + pad)
 
 
-_BUILDERS = {
+_BUILDERS: dict[str, Callable[[_Context], Figure]] = {
     "keepout_inertial.png": fig_keepout_inertial,
     "keepout_mrp.png": fig_keepout_mrp,
     "trajectory_mrp.png": fig_trajectory_mrp,
@@ -909,10 +929,12 @@ _BUILDERS = {
 }
 
 
-def render_figures(runs, out_dir: str, dpi: int = 120, mrp_grid: int = 48) -> list[str]:
+def render_figures(
+    runs: Sequence[ReportRun], out_dir: str, dpi: int = 120, mrp_grid: int = 48
+) -> list[str]:
     """Write every figure of ``FIGURES`` for the runs into ``out_dir``; their file names."""
     ctx = _Context(runs, mrp_grid)
-    written = []
+    written: list[str] = []
     with matplotlib.rc_context(STYLE):
         for name in FIGURES:
             fig = _BUILDERS[name](ctx)

@@ -2,6 +2,11 @@
 external links) with the runs' scenarios, the summary table (one column per run) and
 the figures. ``ROWS`` is the table; every cell shows ``format_value`` of one
 summary number and carries its exact JSON value in ``data-value``.
+
+Where a scenario has them, the scenario table also shows each object's motion (ephemeris
+body or turning rate), the epoch and orbit, and each instrument's per-object exclusions
+and the objects it does not avoid; on a moving sky the captions say how the figures show
+it (``MOVING_SKY_CAPTIONS``). The paper's static skies are shown as before.
 """
 
 from __future__ import annotations
@@ -9,13 +14,19 @@ from __future__ import annotations
 import base64
 import html
 import json
+import math
 import os
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
-from .data import PAIR_KEY, SUMMARY_KEYS
+from attitude_core.config.scenario import Scenario
 
-__all__ = ["ROWS", "format_value", "table_rows", "render_html"]
+from .data import PAIR_KEY, SUMMARY_KEYS, ReportRun
+
+__all__ = ["ROWS", "MOVING_SKY_CAPTIONS", "format_value", "table_rows", "render_html"]
 
 # (summary key, row label, unit); the per-pair minima go where PAIR_KEY stands.
 ROWS = (
@@ -49,6 +60,24 @@ ROWS = (
 )
 assert {k for k, _, _ in ROWS} == set(SUMMARY_KEYS)
 
+_MOVING_CONES = (
+    " On a moving sky, each moving object is drawn as its track over the run (every 1 s) "
+    "with its keep-out cone for each instrument that avoids it (the exclusion from its "
+    "limb plus its angular radius at that time) at the start (dotted), at the closest "
+    "approach (solid, filled: the time of the pair's smallest margin) and at the end "
+    "(dashed)."
+)
+MOVING_SKY_CAPTIONS = {  # added to the figures' captions when a run's sky moves
+    "keepout_inertial.png": _MOVING_CONES,
+    "keepout_mrp.png": " On a moving sky, the regions of the sky at t = 0.",
+    "trajectory_mrp.png": " On a moving sky, the regions of the sky at t = 0.",
+    "trajectory_boresight.png": _MOVING_CONES
+    + " The boresight at each closest approach is marked with a cross.",
+    "margin.png": " On a moving sky, each margin is against the sky of its instant (the "
+    "object's direction and angular radius then, the exclusion measured from its limb), "
+    "one line per constraint, labelled with its name.",
+}
+
 CSS = """
 body { font-family: -apple-system, "Segoe UI", Helvetica, Arial, sans-serif; margin: 0 auto;
        max-width: 1180px; padding: 1.2em 1.6em 3em; color: #1d2125; line-height: 1.4; }
@@ -71,7 +100,7 @@ code { font-size: 0.92em; }
 """
 
 
-def format_value(value) -> str:
+def format_value(value: Any) -> str:
     """How a summary number is shown: 4 significant digits, yes/no, n/a for missing."""
     if value is None:
         return "n/a"
@@ -84,9 +113,9 @@ def format_value(value) -> str:
     return str(value)
 
 
-def table_rows(summaries: list[dict]) -> list[tuple[str, str, str, list]]:
+def table_rows(summaries: Sequence[dict[str, Any]]) -> list[tuple[str, str, str, list[Any]]]:
     """(key path, label, unit, values per run) of the summary table, pairs expanded."""
-    rows = []
+    rows: list[tuple[str, str, str, list[Any]]] = []
     for key, label, unit in ROWS:
         if key != PAIR_KEY:
             rows.append((key, label, unit, [s.get(key) for s in summaries]))
@@ -106,7 +135,7 @@ def table_rows(summaries: list[dict]) -> list[tuple[str, str, str, list]]:
     return rows
 
 
-def _cell(key: str, value) -> str:
+def _cell(key: str, value: Any) -> str:
     classes = ["num"] if isinstance(value, (int, float)) and not isinstance(value, bool) else []
     if key.startswith("min_margin_deg") and isinstance(value, float):
         classes.append("bad" if value <= 0.0 else "good")
@@ -122,54 +151,123 @@ def _cell(key: str, value) -> str:
     )
 
 
-def _vec(v) -> str:
+def _vec(v: npt.ArrayLike) -> str:
     return "[" + ", ".join(f"{x:.4g}" for x in np.asarray(v, dtype=float)) + "]"
 
 
-def _scenario_table(runs) -> str:
+def _paper_instrument(sc: Scenario, i: int) -> bool:
+    """An instrument with one half-angle for every object (the paper's)."""
+    inst = sc.instruments[i]
+    return (
+        inst.half_angle_deg is not None
+        and not inst.exclusion_deg
+        and inst.avoids == sc.bright_object_names
+    )
+
+
+def _instrument_cell(sc: Scenario, i: int) -> str:
+    """Name, boresight and half-angle; the exclusion of each object it avoids (from the
+    limb of a body with a radius) where they differ from the paper's."""
+    e = html.escape
+    text = f"{e(sc.instrument_names[i])}: {_vec(sc.boresights_body[i])}"
+    if not math.isnan(sc.half_angles_deg[i]):
+        text += f", {sc.half_angles_deg[i]:g} deg"
+    if _paper_instrument(sc, i):
+        return text
+    inst = sc.instruments[i]
+    bodies = {o.name for o in sc.bright_objects if o.ephemeris is not None}
+    per = ", ".join(
+        f"{e(o)} {inst.exclusion_of(o):g} deg" + (" from the limb" if o in bodies else "")
+        for o in inst.avoids
+    )
+    text += f"; keep-out: {per or 'none'}"
+    ignored = [o for o in sc.bright_object_names if o not in inst.avoids]
+    return text + (f"; does not avoid {e(', '.join(ignored))}" if ignored else "")
+
+
+def _object_cell(sc: Scenario, j: int) -> str:
+    """Name and direction; an ephemeris body's kind or a turning direction's rate."""
+    e = html.escape
+    o = sc.bright_objects[j]
+    text = f"{e(o.name)}: {_vec(sc.directions_inertial[j])}"
+    if o.ephemeris is not None:
+        radius = float(sc.sky.object_directions(0.0)[1][j])
+        return (
+            f"{e(o.name)}: {e(o.ephemeris)} (ephemeris, seen from the spacecraft), "
+            f"{_vec(sc.directions_inertial[j])} at t = 0, angular radius {radius:.3g} deg"
+        )
+    if o.motion.moves:
+        rate = np.asarray(o.rate_inertial_rad_s, dtype=float)
+        size = float(np.linalg.norm(rate))
+        return (
+            f"{text} at t = 0, turning at {math.degrees(size):.3g} deg/s "
+            f"about {_vec(rate / size)} (inertial)"
+        )
+    return text
+
+
+def _epoch_cell(sc: Scenario) -> str:
+    if sc.epoch_utc is None:
+        return "none"
+    text = html.escape(sc.epoch_utc)
+    o = sc.orbit
+    if o is None:
+        return text + "; no orbit (the Sun and Moon seen from the Earth's centre)"
+    return (
+        f"{text}; orbit a {o.semi_major_axis_km:g} km, e {o.eccentricity:g}, "
+        f"i {o.inclination_deg:g} deg, RAAN {o.raan_deg:g} deg, "
+        f"arg. of perigee {o.arg_perigee_deg:g} deg, true anomaly {o.true_anomaly_deg:g} deg"
+    )
+
+
+def _keep_in_direction(sc: Scenario, k: int) -> str:
+    d = _vec(sc.keep_in_directions_inertial[k])
+    body = sc.keep_in[k].ephemeris
+    return d if body is None else f"{d} ({html.escape(body)} at t = 0)"
+
+
+def _scenario_table(runs: Sequence[ReportRun]) -> str:
     e = html.escape
     head = "".join(f"<th>{e(r.label)}</th>" for r in runs)
+    paper = all(
+        _paper_instrument(r.scenario, i) for r in runs for i in range(len(r.scenario.instruments))
+    )
+    static = all(r.scenario.sky.static for r in runs)
     rows = [
         ("run directory", [f"<code>{e(r.run_dir)}</code>" for r in runs]),
         ("bag (the only input)", [f"<code>{e(r.bag_dir)}</code>" for r in runs]),
         (
-            "instruments: boresight (body), half-angle",
+            "instruments: boresight (body), half-angle"
+            + ("" if paper else "; keep-out angle of each object avoided"),
             [
                 "<br>".join(
-                    f"{e(n)}: {_vec(s)}, {b:g} deg"
-                    for n, s, b in zip(
-                        r.scenario.instrument_names,
-                        r.scenario.boresights_body,
-                        r.scenario.half_angles_deg,
-                        strict=True,
-                    )
+                    _instrument_cell(r.scenario, i) for i in range(len(r.scenario.instruments))
                 )
                 for r in runs
             ],
         ),
         (
-            "bright objects: direction (inertial)",
+            "bright objects: direction (inertial)" + ("" if static else ", motion"),
             [
                 "<br>".join(
-                    f"{e(n)}: {_vec(c)}"
-                    for n, c in zip(
-                        r.scenario.bright_object_names, r.scenario.directions_inertial, strict=True
-                    )
+                    _object_cell(r.scenario, j) for j in range(len(r.scenario.bright_objects))
                 )
                 for r in runs
             ],
         ),
+        ("epoch (UTC), orbit", [_epoch_cell(r.scenario) for r in runs]),
         (
             "keep-in cones: axis (body), direction (inertial), largest angle",
             [
                 "<br>".join(
-                    f"{e(n)}: {_vec(a)}, {_vec(d)}, {g:g} deg"
-                    for n, a, d, g in zip(
-                        r.scenario.keep_in_names,
-                        r.scenario.keep_in_axes_body,
-                        r.scenario.keep_in_directions_inertial,
-                        r.scenario.keep_in_max_angles_deg,
-                        strict=True,
+                    f"{e(n)}: {_vec(a)}, {_keep_in_direction(r.scenario, k)}, {g:g} deg"
+                    for k, (n, a, g) in enumerate(
+                        zip(
+                            r.scenario.keep_in_names,
+                            r.scenario.keep_in_axes_body,
+                            r.scenario.keep_in_max_angles_deg,
+                            strict=True,
+                        )
                     )
                 )
                 or "none"
@@ -191,6 +289,8 @@ def _scenario_table(runs) -> str:
     ]
     if not any(r.scenario.keep_in_names for r in runs):  # the row only where it says something
         rows = [row for row in rows if not row[0].startswith("keep-in cones")]
+    if not any(r.scenario.epoch_utc for r in runs):
+        rows = [row for row in rows if not row[0].startswith("epoch")]
     body = "".join(
         f"<tr><th>{e(name)}</th>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>"
         for name, cells in rows
@@ -198,7 +298,7 @@ def _scenario_table(runs) -> str:
     return f"<table><thead><tr><th></th>{head}</tr></thead><tbody>{body}</tbody></table>"
 
 
-def _summary_table(runs) -> str:
+def _summary_table(runs: Sequence[ReportRun]) -> str:
     e = html.escape
     head = "".join(f"<th>{e(r.label)}</th>" for r in runs)
     body = []
@@ -215,10 +315,13 @@ def _summary_table(runs) -> str:
     )
 
 
-def render_html(runs, figure_dir: str, figures: dict) -> str:
+def render_html(
+    runs: Sequence[ReportRun], figure_dir: str, figures: Mapping[str, tuple[str, str]]
+) -> str:
     """The page for ``runs`` with the PNGs of ``figures`` (file -> (title, caption))
     read from ``figure_dir`` and embedded."""
     e = html.escape
+    moving = not all(r.scenario.sky.static for r in runs)
     if len(runs) == 1:
         title = f"Attitude run report: {runs[0].label}"
     else:
@@ -240,10 +343,20 @@ def render_html(runs, figure_dir: str, figures: dict) -> str:
         "cone half-angle for a keep-out pair (instrument/object), the largest angle allowed "
         "minus the angle between axis and direction for a keep-in cone (keep_in/name); "
         "positive is safe. Arrival time: first time after which the body stays within the "
-        "arrival tolerances.</p>",
+        "arrival tolerances."
+        + (
+            " On a moving sky, a keep-out margin is the angle between the boresight and the "
+            "object's direction at that instant minus the exclusion (from the object's limb) "
+            "and the object's angular radius then."
+            if moving
+            else ""
+        )
+        + "</p>",
         "<h2>Figures</h2>",
     ]
     for name, (fig_title, caption) in figures.items():
+        if moving:
+            caption += MOVING_SKY_CAPTIONS.get(name, "")
         with open(os.path.join(figure_dir, name), "rb") as f:
             data = base64.b64encode(f.read()).decode("ascii")
         parts.append(

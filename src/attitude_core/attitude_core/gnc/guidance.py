@@ -1,0 +1,712 @@
+"""Guidance closed on the measured state: the FEPF target, timed by the state stamps,
+time-scaled to the actuator limits, held when the body falls behind, and an arrival
+judged on the body.
+
+:meth:`Guidance.update` takes one measured state ``(t, sigma_BN, omega_B)`` and returns
+the target for that instant:
+
+1. **Real time.** The target is moved along the rate held since the previous state for
+   the real interval between the two stamps (:meth:`FepfPlanner.advance`, safety-checked),
+   so states at 5, 10 or 20 Hz give the same target trajectory in time.
+2. **FEPF.** The paper's law (eqs. 6-10) proposes the rate at the new target.
+3. **Time scaling** (only with ``actuators`` limits), in body-rate space (eq. 12):
+
+   * ``|omega_t| <=`` :data:`RATE_USE` ``max_rate_rad_s``, lowered when the gyroscopic
+     torque at the rate bound would take more than :data:`GYRO_SHARE` of the torque;
+   * the rate vector changes by at most ``alpha dt``, ``alpha`` a fraction
+     (:data:`TORQUE_USE`) of what the smallest torque bound gives about the largest
+     principal axis after the worst gyroscopic torque at the rate cap, so the PD law
+     keeps the rest for its corrections and its command stays inside the bound;
+   * the speed is capped, hard, by the sampled braking curve ``sqrt(2 alpha theta)`` to
+     the goal (``theta`` the principal angle left) and to the closest buffered cone rim
+     (``theta`` the exact margin less the buffer: a boresight moves by at most the
+     rotation angle). The cap is isotropic: a cap on the approach component alone can
+     demand a stop the body cannot make, as the closest point moves when the target
+     slides along a cone; the isotropic cap falls no faster than ``alpha``.
+   * The rate published is the one the target flies: the planner's step bound
+     (:meth:`FepfPlanner.hold_rate`) is applied to the shaped rate.
+4. **Tracking governor.** With ``e`` the principal angle of ``sigma_B/R``, the rate is
+   scaled by ``clip(2 - e / e_hold, 0, 1)``: full speed up to ``e_hold``, held at
+   ``2 e_hold``. ``e_hold`` is half the planner's buffer: the target stops at the
+   buffered rim, and a boresight moves by at most the rotation angle between two
+   attitudes, so while ``e <= e_hold`` the measured body keeps half the buffer. A body
+   that falls behind a profile within the declared limits shows a plant weaker than
+   declared: the profile's acceleration is then halved (at most every 5 s, down to
+   1/64; :attr:`Guidance.derating`).
+5. **Global route** (:mod:`attitude_core.gnc.route`). Before the first step the guidance
+   plans a route over the attitude space from the start to the goal (edges checked
+   continuously against the exact margins). None at the planner's resolution: the
+   status is ``infeasible`` at once, :attr:`Guidance.reason` names the constraints that
+   enclose the start or the goal, and the target holds the start. With
+   ``planner.global_route`` the route's waypoints are the FEPF's intermediate goals: the
+   next waypoint is taken as soon as the whole rotation to it keeps the route's
+   clearance (or the target is within half the route's slack, its clearance beyond the
+   buffer, of the current one); the braking curve to the goal runs along the rest of
+   the route, and braking curves to each turn at a waypoint keep the swing of the turn
+   within half the slack (:func:`corner_speed`). While the rotation to the current
+   waypoint keeps the buffer the cone braking is not needed (the target flies that
+   rotation). When the target makes no progress for half ``planner.stuck_timeout_s``, a new
+   route is planned from the target off the step path (``executor``, e.g. a thread)
+   and followed :data:`ROUTE_LATENCY_S` of state time later, at most
+   :data:`ROUTE_REPLANS` times.
+6. **Moving sky** (:mod:`attitude_core.gnc.moving_sky`). The FEPF's cones are those of
+   the next few seconds, replaced every second of state time; routes avoid the cones
+   swept over the expected slew and are planned again at a bounded rate, off the step
+   path; a goal the sky will cover before the body gets there (or while it holds there)
+   is reported ``blocked`` before it happens, with the constraint and the window in
+   :attr:`Guidance.reason`, the target is held clear of it, and the slew goes on when
+   the goal clears. :attr:`Guidance.goal_safe_until_s` says when the goal next loses
+   its clearance.
+7. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
+   body is within the arrival tolerances (attitude and rate); it is withdrawn if the
+   body leaves twice those tolerances. ``stuck`` when neither the target's nor the
+   body's distance to the goal has improved for ``planner.stuck_timeout_s`` (plus,
+   with limits, the time to stop from the rate bound); the target then holds.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from concurrent.futures import Future
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc.fepf import FepfPlanner, PlannerOutput, scenario_fis
+from attitude_core.gnc.fepf import buffer_deg as planner_buffer_deg
+from attitude_core.gnc.fuzzy import MamdaniFis, lookup_table
+from attitude_core.gnc.goal_watch import Blockage
+from attitude_core.gnc.moving_sky import (
+    BLOCK_WINDOW_MAX_S,
+    LEAVE_LEAD_S,
+    LOOKAHEAD_S,
+    PARK_WINDOW_S,
+    ROUTE_REFRESH_S,
+    SKY_REFRESH_S,
+    SkyGuide,
+    nominal_eta_s,
+)
+from attitude_core.gnc.mrp import (
+    Vec3Like,
+    angle_between_single,
+    dcm_rows_from_mrp,
+    mrp_rate_single,
+    omega_from_mrp_rate_single,
+)
+from attitude_core.gnc.route import Route, RoutePlanner
+from attitude_core.gnc.route_following import RouteFollower, braking_speed, corner_speed
+
+if TYPE_CHECKING:
+    from attitude_core.config.scenario import Scenario
+
+__all__ = [
+    "TORQUE_USE",
+    "GYRO_SHARE",
+    "RATE_USE",
+    "BRAKE_USE",
+    "ROUTE_REPLANS",
+    "ROUTE_LATENCY_S",
+    "Executor",
+    "ImmediateExecutor",
+    "GuidanceLimits",
+    "GuidanceOutput",
+    "Guidance",
+    "PreparedGuidance",
+    "time_bound_s",
+    "scenario_eta_s",
+]
+
+TORQUE_USE = 0.85
+"""Fraction of the available acceleration the target profile uses; the PD law keeps the
+rest for its corrections (tracking error, disturbances)."""
+
+GYRO_SHARE = 0.25
+"""Largest share of the smallest torque bound the gyroscopic torque may take at the
+profile's rate cap (which is lowered below ``max_rate_rad_s`` when needed)."""
+
+RATE_USE = 0.95
+"""Fraction of ``max_rate_rad_s`` the target's rate may reach, for the body's overshoot."""
+
+BRAKE_USE = 1.0
+"""Fraction of the angle to the closest buffered rim that the braking curve may use."""
+
+
+ROUTE_REPLANS = 2
+"""Routes planned again from the target when it stalls, at most."""
+
+ROUTE_LATENCY_S = 1.0
+"""State time after its request at which a new route is taken: the same step offline,
+in lockstep and in real time (a route takes well under this to plan; a thread that is
+late is waited for)."""
+
+
+class Executor(Protocol):
+    """Where a route is planned during the run: ``submit(fn, *args)`` returns a future
+    (a ``concurrent.futures`` executor, or :class:`ImmediateExecutor`)."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future[Any]: ...
+
+
+class ImmediateExecutor:
+    """Runs the task at once (offline and lockstep runs: deterministic). Its result is
+    still taken at the next update, as a thread's would be."""
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any) -> Future[Any]:
+        future: Future[Any] = Future()
+        future.set_result(fn(*args))
+        return future
+
+
+# Progress: a new best distance to the goal must beat the old one by this much (a
+# target creeping towards the governor's hold point must not count).
+_PROGRESS_RAD = 1e-3  # body, principal angle
+_PROGRESS_MRP = 2.5e-4  # target, MRP distance along the route (about the same angle)
+_MIN_HOLD_DEG = 0.1
+_MIN_DERATING = 1.0 / 64.0
+_DERATE_EVERY_S = 5.0
+
+
+@dataclass(frozen=True)
+class GuidanceLimits:
+    """The target profile's bounds in body-rate space, from the actuator limits.
+
+    ``max_rate_rad_s`` bounds ``|omega_t|`` and ``accel_rad_s2`` its change; None is
+    unlimited. ``alpha_max_rad_s2`` is the rest-to-rest bound's ``alpha_max``: the
+    smallest torque bound over the largest principal inertia.
+    """
+
+    max_rate_rad_s: float | None = None
+    accel_rad_s2: float | None = None
+    alpha_max_rad_s2: float | None = None
+
+    @classmethod
+    def from_actuators(
+        cls,
+        inertia_kgm2: npt.ArrayLike,
+        max_torque_nm: tuple[float, float, float] | None,
+        max_rate_rad_s: float | None,
+    ) -> GuidanceLimits:
+        if max_torque_nm is None:
+            return cls(max_rate_rad_s, None, None)
+        j = np.linalg.eigvalsh(np.asarray(inertia_kgm2, dtype=float).reshape(3, 3))
+        j_min, j_max = float(j[0]), float(j[-1])
+        tau = float(min(max_torque_nm))
+        # |omega x J omega| <= (J_max - J_min) |omega|^2 / 2; the rate is capped so that
+        # the gyroscopic torque takes at most GYRO_SHARE of the smallest bound.
+        half_spread = 0.5 * (j_max - j_min)
+        rate = max_rate_rad_s
+        if half_spread > 0.0:
+            gyro_rate = math.sqrt(GYRO_SHARE * tau / half_spread)
+            rate = gyro_rate if rate is None else min(rate, gyro_rate)
+        gyro = 0.0 if rate is None else half_spread * rate * rate
+        accel = TORQUE_USE * (tau - gyro) / j_max
+        return cls(rate, accel, tau / j_max)
+
+
+def time_bound_s(
+    rotation_rad: float, max_rate_rad_s: float | None, alpha_max_rad_s2: float | None
+) -> float | None:
+    """Rest-to-rest time bound along a rotation of ``rotation_rad``.
+
+    ``T* = theta / omega_max + omega_max / alpha_max`` when the rate bound is reached
+    (``theta >= omega_max^2 / alpha_max``), ``2 sqrt(theta / alpha_max)`` when it is
+    not, ``theta / omega_max`` with no torque bound; None with neither bound.
+    """
+    theta = max(float(rotation_rad), 0.0)
+    if alpha_max_rad_s2 is None:
+        return None if max_rate_rad_s is None else theta / max_rate_rad_s
+    if max_rate_rad_s is None or theta < max_rate_rad_s**2 / alpha_max_rad_s2:
+        return 2.0 * math.sqrt(theta / alpha_max_rad_s2)
+    return theta / max_rate_rad_s + max_rate_rad_s / alpha_max_rad_s2
+
+
+@dataclass(slots=True)
+class GuidanceOutput:
+    """The target of one state and what the guidance knows about the tracking."""
+
+    target: PlannerOutput
+    tracking_error_deg: float  # principal angle of sigma_B/R
+    goal_error_deg: float  # principal angle of sigma_B/D
+    speed_factor: float  # the governor's factor, 1 = full speed, 0 = held
+    derating: float  # share of the declared acceleration the profile uses (1: all)
+
+
+@dataclass(frozen=True)
+class PreparedGuidance:
+    """What a guidance needs before its first state (:meth:`Guidance.prepare`): the FIS
+    (their lookup tables built), the route planner (its roadmap built) and the route from
+    the scenario's start."""
+
+    fis: tuple[MamdaniFis, MamdaniFis]
+    routes: RoutePlanner
+    initial_route: Route
+
+
+def scenario_eta_s(scenario: Scenario, sigma_0: Vec3Like) -> float:
+    """Expected slew time of a scenario from ``sigma_0``: the principal angle to the goal
+    with half again for the detours (:func:`nominal_eta_s`)."""
+    rotation = 1.5 * angle_between_single(sigma_0, scenario.desired_mrp)
+    act = scenario.actuators
+    lim = GuidanceLimits.from_actuators(
+        scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+    )
+    bound = time_bound_s(rotation, lim.max_rate_rad_s, lim.alpha_max_rad_s2)
+    return nominal_eta_s(rotation, scenario.planner.max_attractive_rate_mrp_s, bound)
+
+
+class Guidance:
+    """FEPF guidance closed on the measured state (see the module docstring)."""
+
+    def __init__(
+        self,
+        planner: FepfPlanner,
+        limits: GuidanceLimits,
+        attitude_tol_deg: float,
+        rate_tol_rad_s: float,
+        routes: RoutePlanner | None = None,
+        follow_route: bool = True,
+        executor: Executor | None = None,
+        initial_route: Route | None = None,
+        sky_guide: SkyGuide | None = None,
+    ) -> None:
+        if planner.watchdog:
+            raise ValueError("Guidance: give it a planner without its own stuck watchdog")
+        self.planner = planner  # progress is judged here, on the body too
+        self.limits = limits
+        self.attitude_tol_deg = attitude_tol_deg
+        self.rate_tol_rad_s = rate_tol_rad_s
+        self.hold_deg = max(0.5 * planner.geometry.inflation_deg, _MIN_HOLD_DEG)
+        self.derating = 1.0  # share of the declared acceleration the plant has shown
+        self._derated_at = -math.inf
+        self.goal = np.asarray(planner.goal, dtype=float)
+        self.t_prev: float | None = None
+        self.omega_prev = np.zeros(3)
+        self.status = PlannerStatus.TRACKING
+        self._best_body = math.inf
+        self._best_target = math.inf
+        self._since_progress = 0.0
+        self.routes = routes
+        self.follow_route = follow_route and routes is not None
+        self.executor: Executor = ImmediateExecutor() if executor is None else executor
+        self.route: Route | None = None
+        self.reason = ""  # why the slew is infeasible
+        self.replans = 0
+        self._pending: Future[Route] | None = None
+        self._pending_at = math.inf  # state time at which the pending route is taken
+        self._first_route_deg = math.nan
+        self.follower: RouteFollower | None = None  # the route being flown
+        self.sky_guide = sky_guide  # a moving sky (None: static)
+        self.blockage: Blockage | None = None  # the goal's blockage while blocked
+        self.goal_safe_until_s = math.inf  # when the goal next loses its clearance
+        if sky_guide is not None:
+            planner.evade = True
+        if routes is not None:
+            first = (
+                initial_route
+                if initial_route is not None
+                else routes.plan(planner.sigma_t, self.goal)
+            )
+            if first.feasible:
+                self._take_route(first)
+            elif sky_guide is not None and sky_guide.blockage_ahead(0.0, self._eta_s()):
+                self.route = None  # the goal is blocked: no route until it clears
+            else:
+                self.route = first
+                self.reason = first.reason
+                self.status = PlannerStatus.INFEASIBLE
+                planner.hold(PlannerStatus.INFEASIBLE)  # the target holds the start
+
+    @classmethod
+    def from_scenario(
+        cls,
+        scenario: Scenario,
+        sigma_0: Vec3Like | None = None,
+        executor: Executor | None = None,
+        routes: RoutePlanner | None = None,
+        initial_route: Route | None = None,
+        prepared: PreparedGuidance | None = None,
+    ) -> Guidance:
+        """The guidance of a scenario from ``sigma_0`` (default: the scenario's start);
+        ``routes`` may be a prepared :meth:`route_planner` of the same scenario and
+        ``initial_route`` a route it planned from ``sigma_0`` (planned here otherwise).
+        ``prepared`` (:meth:`prepare`) gives both: its route is taken when ``sigma_0`` is
+        the scenario's start."""
+        act = scenario.actuators
+        fis = None if prepared is None else prepared.fis
+        planner = FepfPlanner.from_scenario(scenario, sigma_0, watchdog=False, fis=fis)
+        if prepared is not None:
+            routes = prepared.routes
+            fresh = np.allclose(planner.sigma_t, scenario.initial_mrp, rtol=0.0, atol=1e-9)
+            initial_route = prepared.initial_route if fresh else None
+        sky_guide = cls.moving_sky_guide(scenario, planner.geometry.inflation_deg)
+        if routes is None or routes.buffer_deg != planner.geometry.inflation_deg:
+            routes = cls.route_planner(scenario, planner.geometry.inflation_deg)
+        if initial_route is None and sky_guide is not None:
+            eta = scenario_eta_s(scenario, planner.sigma_t)
+            initial_route = sky_guide.plan_route(0.0, eta, planner.sigma_t, planner.goal)
+        return cls(
+            planner,
+            GuidanceLimits.from_actuators(
+                scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+            ),
+            scenario.arrival.attitude_tol_deg,
+            scenario.arrival.rate_tol_rad_s,
+            routes,
+            scenario.planner.global_route,
+            executor,
+            initial_route,
+            sky_guide,
+        )
+
+    @staticmethod
+    def moving_sky_guide(scenario: Scenario, buffer_deg: float) -> SkyGuide | None:
+        """The moving-sky guide of a scenario (None on a static sky)."""
+        if scenario.sky.static:
+            return None
+        return SkyGuide(
+            scenario.sky,
+            scenario.desired_mrp,
+            buffer_deg,
+            scenario.planner.obstacle_samples,
+            scenario.constraint_names,
+            scenario.sim_time_s,
+            scenario.planner.roadmap_nodes,
+        )
+
+    @classmethod
+    def prepare(cls, scenario: Scenario) -> PreparedGuidance:
+        """Everything worth doing before the first state, once: the FIS lookup tables
+        (cached per process), the roadmap and the route from the scenario's start."""
+        fis = scenario_fis(scenario)
+        for one in fis:
+            lookup_table(one)
+        buffer = planner_buffer_deg(scenario, scenario.initial_mrp)
+        routes = cls.route_planner(scenario, buffer)
+        guide = cls.moving_sky_guide(scenario, buffer)
+        if guide is None:
+            initial_route = routes.plan(scenario.initial_mrp, scenario.desired_mrp)
+        else:
+            eta = scenario_eta_s(scenario, scenario.initial_mrp)
+            initial_route = guide.plan_route(0.0, eta, scenario.initial_mrp, scenario.desired_mrp)
+        return PreparedGuidance(fis, routes, initial_route)
+
+    @staticmethod
+    def route_planner(scenario: Scenario, buffer_deg: float) -> RoutePlanner:
+        """The route planner of a scenario for a planner buffer of ``buffer_deg``."""
+        return RoutePlanner(
+            scenario.exact_geometry(),
+            buffer_deg,
+            scenario.constraint_names,
+            scenario.planner.roadmap_nodes,
+        )
+
+    def _take_route(self, route: Route) -> None:
+        """Follow ``route`` (its first waypoint is where the target is)."""
+        self.route = route
+        if math.isnan(self._first_route_deg):
+            self._first_route_deg = math.degrees(route.rotation_rad)
+        if self.follow_route:
+            self.follower = RouteFollower(self.planner, route)
+
+    def route_report(self) -> tuple[float, int, str]:
+        """The route followed: its rotation (deg) and waypoints, or NaN, 0 and the reason
+        no route exists (empty when there is no route at all)."""
+        route = self.route
+        if route is None or not route.feasible:
+            return float("nan"), 0, self.reason
+        return float(np.degrees(route.rotation_rad)), len(route.waypoints), ""
+
+    @property
+    def route_rotation_deg(self) -> float:
+        """Rotation of the first feasible route planned, deg (NaN without one)."""
+        return self._first_route_deg
+
+    def remaining_rad(self, sigma_t: Vec3Like) -> float:
+        """Rotation left to the goal from ``sigma_t``: along the route when one is
+        followed, else the principal angle."""
+        if self.follower is None:
+            return angle_between_single(sigma_t, self.goal)
+        return self.follower.remaining_rad(sigma_t)
+
+    def _to_rim(self, sigma_t: Vec3Like, omega_t: npt.NDArray[np.float64], rim_deg: float) -> float:
+        """Rotation (rad) about the rate ``omega_t`` (target axes) until a constraint's
+        margin falls to ``rim_deg`` (:meth:`ConeGeometry.rotation_to_rim_deg`)."""
+        size = math.hypot(float(omega_t[0]), float(omega_t[1]), float(omega_t[2]))
+        if size == 0.0:
+            return math.inf
+        r0, r1, r2 = dcm_rows_from_mrp(sigma_t)  # C_TN: inertial axis = C_TN^T omega_hat
+        w = [float(x) / size for x in omega_t]
+        axis = tuple(w[0] * r0[i] + w[1] * r1[i] + w[2] * r2[i] for i in range(3))
+        return math.radians(self.planner.geometry.rotation_to_rim_deg(sigma_t, axis, rim_deg))
+
+    def _replan(self) -> None:
+        """Plan a new route from the target, off the step path."""
+        if self.routes is None or not self.follow_route or self._pending is not None:
+            return
+        if self.replans >= ROUTE_REPLANS:
+            return
+        self.replans += 1
+        self._submit_route()
+
+    def _submit_route(self) -> None:
+        """Ask for a route from the target, off the step path (on a moving sky, clear of
+        the cones swept over the expected slew)."""
+        t = self.t_prev or 0.0
+        start, goal = tuple(self.planner.sigma_t), tuple(self.goal)
+        guide = self.sky_guide
+        if guide is None:
+            assert self.routes is not None
+            self._pending = self.executor.submit(self.routes.plan, start, goal)
+        elif self.blockage is not None:
+            end = self.blockage.end_s
+            window = PARK_WINDOW_S if end is None else end - t
+            self._pending = self.executor.submit(guide.plan_park, t, window, start, goal)
+        else:
+            self._pending = self.executor.submit(guide.plan_route, t, self._eta_s(), start, goal)
+        self._pending_at = t + ROUTE_LATENCY_S
+
+    def _collect_route(self, t_s: float) -> None:
+        pending = self._pending
+        if pending is None or t_s < self._pending_at:
+            return
+        self._pending = None
+        route = pending.result()
+        if route.feasible and self.status == PlannerStatus.BLOCKED:
+            self.planner.status = PlannerStatus.TRACKING  # off to the (new) place to wait
+            self._take_route(route)
+            return
+        if (
+            route.feasible
+            and self.planner.status == PlannerStatus.TRACKING
+            and self.status == PlannerStatus.TRACKING
+        ):
+            # The route starts where the target was when it was asked for; the target has
+            # not moved much since (it stalled): aim at the route's next waypoint.
+            self._take_route(route)
+            # Progress is measured along the new route from here on (it may be longer).
+            self._since_progress = 0.0
+            self._best_body = self._best_target = math.inf
+
+    def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
+        """The target for the measured state at time ``t_s`` (s, non-decreasing)."""
+        planner = self.planner
+        nominal = planner.dt
+        dt = 0.0 if self.t_prev is None else float(t_s) - self.t_prev
+        if dt < 0.0:
+            raise ValueError(f"state time {t_s} s is before the previous {self.t_prev} s")
+        if dt == 0.0 and self.t_prev is not None:
+            raise ValueError(f"state time {t_s} s repeats the previous one")
+        self.t_prev = float(t_s)
+        planner.advance(dt)
+        if self.sky_guide is not None:
+            self._watch_sky(float(t_s))
+        self._collect_route(float(t_s))
+        if planner.status == PlannerStatus.TRACKING and self.follower is not None:
+            self.follower.advance()
+        out = planner.propose(dt if dt > 0.0 else nominal, max(nominal, dt))
+        e_track = math.degrees(angle_between_single(sigma_bn, out.sigma_t))
+        e_goal = math.degrees(angle_between_single(sigma_bn, self.goal))
+        factor = 1.0
+        if planner.status == PlannerStatus.TRACKING:
+            omega_t = self._time_scaled(out, dt if dt > 0.0 else nominal)
+            factor = min(max(2.0 - e_track / self.hold_deg, 0.0), 1.0)
+            self._derate(factor, float(t_s))
+            omega_t = factor * omega_t
+            sigma_t = (float(out.sigma_t[0]), float(out.sigma_t[1]), float(out.sigma_t[2]))
+            rate = mrp_rate_single(
+                sigma_t, (float(omega_t[0]), float(omega_t[1]), float(omega_t[2]))
+            )
+            safe = planner.hold_rate(rate, max(nominal, dt))
+            if safe != rate:  # the planner's step bound shortened it: publish what it flies
+                rate = safe
+                omega_t = omega_from_mrp_rate_single(sigma_t, safe)
+            self.omega_prev = omega_t
+            out = replace(out, sigma_t_dot=np.array(rate), omega_t=omega_t)
+        else:
+            self.omega_prev = np.zeros(3)
+            if planner.status == PlannerStatus.STUCK:
+                factor = 0.0  # held
+        self._judge(dt, e_goal, math.hypot(float(omega_b[0]), float(omega_b[1]), float(omega_b[2])))
+        return GuidanceOutput(
+            replace(out, status=self.status), e_track, e_goal, factor, self.derating
+        )
+
+    # ------------------------------------------------------------------------------
+
+    def _time_scaled(self, out: PlannerOutput, dt: float) -> npt.NDArray[np.float64]:
+        """Step 3 of the module docstring: the FEPF rate within the limits."""
+        lim = self.limits
+        omega = np.array(out.omega_t, dtype=float)
+        if lim.max_rate_rad_s is None and lim.accel_rad_s2 is None:
+            return omega
+        speed = math.hypot(*omega)
+        cap = math.inf if lim.max_rate_rad_s is None else RATE_USE * lim.max_rate_rad_s
+        alpha = None if lim.accel_rad_s2 is None else lim.accel_rad_s2 * self.derating
+        if alpha is not None:
+            sigma_t = out.sigma_t
+            theta = self.remaining_rad(sigma_t)
+            # Rotation to the buffered rim: a rotation by theta moves a boresight by at
+            # most theta, so the exact margin less the buffer bounds it from below.
+            geometry = self.planner.geometry
+            margin = self.planner.margin_deg()  # at sigma_t, the target just proposed
+            theta_obs = math.radians(max(margin - geometry.inflation_deg, 0.0))
+            if self.follower is not None:
+                # On a route, the rotation to the rim along the way the target turns (its
+                # rate now and the rate asked for): alongside a cone, no braking. The rim
+                # is the buffer's, or RIM_FLOOR of it for a target already at the rim.
+                rim = self.planner.sight_margin_deg()
+                ahead = min(
+                    self._to_rim(sigma_t, self.omega_prev, rim), self._to_rim(sigma_t, omega, rim)
+                )
+                theta_obs = max(math.radians(max(margin - rim, 0.0)), ahead)
+            theta = min(theta, BRAKE_USE * theta_obs)
+            cap = min(cap, braking_speed(alpha, theta, dt))
+            if self.follower is not None:
+                cap = min(cap, self.follower.corner_cap(sigma_t, alpha, dt))
+        wanted = cap
+        follower = self.follower
+        if alpha is not None and speed > 0.0 and follower is not None:
+            # Turn before speeding up (on a route): the speed aimed at while the rate vector
+            # turns to the new direction keeps the swing of the turn within the route's
+            # slack (a soft cap, reached at alpha).
+            prev = math.hypot(*self.omega_prev)
+            want = self.planner.wanted_omega
+            size = math.hypot(*want)
+            if prev > 0.0 and size > 0.0:
+                cos_turn = float(np.dot(want, self.omega_prev)) / (size * prev)
+                turn = math.acos(min(max(cos_turn, -1.0), 1.0))
+                wanted = min(cap, corner_speed(alpha, turn, math.radians(follower.swing_deg)))
+        if speed > wanted:
+            omega *= wanted / speed
+        if alpha is not None:
+            change = omega - self.omega_prev
+            size = math.hypot(*change)
+            if size > alpha * dt:
+                omega = self.omega_prev + change * (alpha * dt / size)
+            # The braking caps are hard: when turning used up the acceleration bound,
+            # braking takes what it needs (from the controller's reserve).
+            speed = math.hypot(*omega)
+            if speed > cap:
+                omega *= cap / speed
+        return omega
+
+    @property
+    def stuck_timeout_s(self) -> float:
+        """``planner.stuck_timeout_s`` plus, with limits, the time to stop from the rate
+        cap at the profile's derated acceleration (slow actuators turn round slowly),
+        counting the derating down to a quarter only, so that a dead plant is still
+        reported."""
+        lim = self.limits
+        timeout = self.planner.cfg.stuck_timeout_s
+        if lim.accel_rad_s2 is not None and lim.max_rate_rad_s is not None:
+            timeout += lim.max_rate_rad_s / (lim.accel_rad_s2 * max(self.derating, 0.25))
+        return timeout
+
+    def _derate(self, factor: float, t_s: float) -> None:
+        """A plant that falls behind a profile within its declared limits is weaker than
+        declared: halve the profile's acceleration (at most once per settling time),
+        down to :data:`_MIN_DERATING`."""
+        if factor >= 1.0 or self.limits.accel_rad_s2 is None:
+            return
+        if t_s - self._derated_at < _DERATE_EVERY_S:
+            return
+        self.derating = max(0.5 * self.derating, _MIN_DERATING)
+        self._derated_at = t_s
+
+    # -- moving sky -------------------------------------------------------------------
+
+    def _eta_s(self) -> float:
+        """Expected time for the body to arrive from here (moving sky)."""
+        planner = self.planner
+        rotation = self.remaining_rad(planner.sigma_t)
+        lim = self.limits
+        bound = time_bound_s(rotation, lim.max_rate_rad_s, lim.alpha_max_rad_s2)
+        return nominal_eta_s(rotation, planner.cfg.max_attractive_rate_mrp_s, bound)
+
+    def _watch_sky(self, t_s: float) -> None:
+        """Step 6 of the module docstring, at most every ``SKY_REFRESH_S``."""
+        guide = self.sky_guide
+        assert guide is not None
+        self.goal_safe_until_s = guide.safe_until_s(t_s)
+        if t_s < guide.next_refresh_s:
+            return
+        guide.next_refresh_s = t_s + SKY_REFRESH_S
+        planner = self.planner
+        held = self.status == PlannerStatus.ARRIVED
+        lead = LEAVE_LEAD_S + (0.0 if held else self._eta_s())
+        block = self.blockage  # blocked: until that blockage ends (no flapping)
+        if block is None or (block.end_s is not None and block.end_s <= t_s):
+            block = None
+            if self.status != PlannerStatus.INFEASIBLE:
+                block = guide.blockage_ahead(t_s, lead)
+        window = SKY_REFRESH_S + LOOKAHEAD_S
+        if block is not None:
+            if not self.follow_route:  # no place to wait: keep the goal inside a cone
+                window = max(window, min(block.start_s - t_s + LOOKAHEAD_S, BLOCK_WINDOW_MAX_S))
+            if self.status != PlannerStatus.BLOCKED:
+                self.status, self.blockage, self.reason = (
+                    PlannerStatus.BLOCKED,
+                    block,
+                    block.reason(),
+                )
+                self.follower = None
+                planner.status = PlannerStatus.TRACKING
+                # Hold (pushed out by a cone that comes over it) until a place to wait is
+                # planned; without routes, towards the goal but short of it.
+                planner.set_goal(
+                    self.goal if not self.follow_route else planner.sigma_t, final=False
+                )
+                guide.next_route_s = t_s
+        elif self.status == PlannerStatus.BLOCKED:
+            self.status, self.blockage, self.reason = PlannerStatus.TRACKING, None, ""
+            self.follower = None
+            planner.status = PlannerStatus.TRACKING
+            planner.set_goal(self.goal, final=True)
+            self._since_progress = 0.0
+            self._best_body = self._best_target = math.inf
+            guide.next_route_s = t_s  # a route from here, now
+        planner.set_geometry(guide.local_geometry(t_s, window))
+        if (
+            self.status in (PlannerStatus.TRACKING, PlannerStatus.BLOCKED)
+            and self.follow_route
+            and self._pending is None
+            and t_s >= guide.next_route_s
+        ):
+            guide.next_route_s = t_s + ROUTE_REFRESH_S
+            self._submit_route()
+
+    def _judge(self, dt: float, e_goal_deg: float, rate_b: float) -> None:
+        """Step 7 of the module docstring."""
+        planner = self.planner
+        if self.status in (PlannerStatus.STUCK, PlannerStatus.INFEASIBLE, PlannerStatus.BLOCKED):
+            return
+        on_goal = planner.status == PlannerStatus.ARRIVED
+        if on_goal and e_goal_deg <= self.attitude_tol_deg and rate_b <= self.rate_tol_rad_s:
+            self.status = PlannerStatus.ARRIVED
+        elif self.status == PlannerStatus.ARRIVED and (
+            e_goal_deg > 2.0 * self.attitude_tol_deg or rate_b > 2.0 * self.rate_tol_rad_s
+        ):
+            self.status = PlannerStatus.TRACKING
+        if self.status == PlannerStatus.ARRIVED:
+            self._since_progress = 0.0
+            return
+        body = math.radians(e_goal_deg)
+        target = planner.goal_distance_mrp if not on_goal else 0.0
+        progressed = False
+        if body < self._best_body - _PROGRESS_RAD:
+            self._best_body, progressed = body, True
+        if target < self._best_target - _PROGRESS_MRP:
+            self._best_target, progressed = target, True
+        if progressed:
+            self._since_progress = 0.0
+            return
+        self._since_progress += dt
+        if self._since_progress >= 0.5 * planner.cfg.stuck_timeout_s:
+            self._replan()
+        if self._since_progress >= self.stuck_timeout_s:
+            self.status = PlannerStatus.STUCK
+            planner.hold(PlannerStatus.STUCK)  # the target holds where it is

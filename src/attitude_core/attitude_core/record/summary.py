@@ -1,0 +1,200 @@
+"""A run's figures: the fields of ``summary.json``, defined once (:class:`Summary`).
+
+Margins are measured on the body's attitude, densely
+(:func:`attitude_core.record.metrics.dense_min_margin_deg`); the arrival is the body's
+(:func:`attitude_core.record.metrics.arrival_time`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc.fepf import buffer_deg
+from attitude_core.gnc.goal_watch import goal_blockages, safe_until_s
+from attitude_core.gnc.guidance import GuidanceLimits, time_bound_s
+from attitude_core.record.metrics import arrival_time, dense_min_margin_deg, path_length_mrp
+from attitude_core.record.trajectory import RunResult
+
+__all__ = ["Summary", "SUMMARY_KEYS", "summarize"]
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Summary figures of one run, in ``summary.json`` order; None where a figure does
+    not apply (no arrival, no actuator limit, no route)."""
+
+    scenario: str
+    planner_variant: str
+    reached: bool  # the body arrived (attitude and rate within the arrival tolerances)
+    t_reach_s: float | None
+    t_plan_arrival_s: float | None  # the planner first reported arrived
+    planner_stuck: bool
+    planner_infeasible: bool
+    infeasible_reason: str | None
+    planner_blocked: bool  # the moving sky covered the goal (or was about to) at some point
+    blocked_by: str | None  # the constraint that blocked it first
+    blocked_window_s: list[float | None] | None  # [from, until] (until None: the run's end)
+    blocked_reason: str | None
+    goal_safe_until_s: float | None  # after the arrival (or the end): the goal next lacks
+    # its clearance then; None: not within the run
+    min_margin_deg: float  # dense minimum over every constraint, on the body
+    t_min_margin_s: float
+    min_margin_deg_per_pair: dict[str, float]  # per constraint name, at the samples
+    path_length_mrp: float
+    target_path_length_mrp: float
+    final_attitude_error_deg: float
+    final_rate_rad_s: float
+    peak_rate_rad_s: float
+    peak_torque_nm: float
+    rotation_deg: float  # rotation flown up to the arrival
+    time_bound_s: float | None  # rest-to-rest bound along that rotation
+    time_ratio_to_bound: float | None
+    peak_torque_to_bound: float | None
+    peak_rate_to_bound: float | None
+    route_rotation_deg: float | None  # the planner's first global route
+    planner_step_us_median: float
+    planner_step_us_p99: float
+    sim_time_s: float
+    dt_s: float
+    wall_time_s: float
+
+    def to_json(self) -> dict[str, Any]:
+        """The fields as ``summary.json`` holds them, in order."""
+        return {f.name: _plain(getattr(self, f.name)) for f in dataclasses.fields(self)}
+
+
+SUMMARY_KEYS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(Summary))
+"""The keys of a run's ``summary.json`` that every runner writes."""
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, dict):
+        return dict(value)
+    return list(value) if isinstance(value, list) else value
+
+
+def summarize(run: RunResult) -> Summary:
+    """Summary figures of a run (the fields of ``summary.json``).
+
+    ``min_margin_deg`` is the dense minimum over every constraint;
+    ``min_margin_deg_per_pair`` the minimum at the samples of each constraint, keyed by
+    :attr:`Scenario.constraint_names` (``"<instrument>/<object>"`` keep-out pairs, then
+    ``"keep_in/<name>"`` keep-in cones).
+    """
+    sc = run.scenario
+    min_margin, t_min = dense_min_margin_deg(sc.sky, run.t, run.sigma_bn, run.omega_b)
+    reached, t_reach, err_deg = arrival_time(
+        run.t,
+        run.sigma_bn,
+        run.omega_b,
+        sc.desired_mrp,
+        sc.arrival.attitude_tol_deg,
+        sc.arrival.rate_tol_rad_s,
+    )
+    arrived = np.flatnonzero(run.planner_status == PlannerStatus.ARRIVED.code)
+    stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
+    infeasible = bool(np.any(run.planner_status == PlannerStatus.INFEASIBLE.code))
+    blocked_at = np.flatnonzero(run.planner_status == PlannerStatus.BLOCKED.code)
+    blockages = goal_blockages(
+        sc.sky,
+        sc.desired_mrp,
+        0.0,
+        sc.sim_time_s,
+        buffer_deg(sc, sc.initial_mrp),
+        sc.constraint_names,
+    )
+    first_block = None
+    if len(blocked_at):
+        t_blocked = float(run.t[blocked_at[0]])
+        first_block = next((b for b in blockages if b.end_s is None or b.end_s > t_blocked), None)
+    safe_until = safe_until_s(blockages, float(run.t[-1]) if t_reach is None else t_reach)
+    # Every constraint (keep-out pairs, then keep-in cones), at the samples.
+    per_constraint = constraint_margins_deg(sc, run.t, run.sigma_bn).min(axis=0)
+    # Planner cost while it is working (arrived/stuck steps return at once).
+    tracking = run.planner_status == PlannerStatus.TRACKING.code
+    step_s = run.planner_step_s[tracking] if tracking.any() else run.planner_step_s
+    limits = _against_limits(run, t_reach)
+    return Summary(
+        scenario=sc.name,
+        planner_variant=sc.planner.variant.value,
+        reached=bool(reached),
+        t_reach_s=None if t_reach is None else round(t_reach, 9),
+        t_plan_arrival_s=round(float(run.t[arrived[0]]), 9) if len(arrived) else None,
+        planner_stuck=stuck,
+        planner_infeasible=infeasible,
+        infeasible_reason=(run.planner_reason or None) if infeasible else None,
+        planner_blocked=bool(len(blocked_at)),
+        blocked_by=None if first_block is None else first_block.constraint,
+        blocked_window_s=(
+            None if first_block is None else [first_block.start_s, first_block.end_s]
+        ),
+        blocked_reason=None if first_block is None else first_block.reason(),
+        goal_safe_until_s=None if not np.isfinite(safe_until) else float(safe_until),
+        min_margin_deg=min_margin,
+        t_min_margin_s=round(t_min, 9),
+        min_margin_deg_per_pair={
+            name: float(m) for name, m in zip(sc.constraint_names, per_constraint, strict=True)
+        },
+        path_length_mrp=path_length_mrp(run.sigma_bn),
+        target_path_length_mrp=path_length_mrp(run.sigma_t),
+        final_attitude_error_deg=float(err_deg[-1]),
+        final_rate_rad_s=float(np.linalg.norm(run.omega_b[-1])),
+        peak_rate_rad_s=float(np.max(np.linalg.norm(run.omega_b, axis=1))),
+        peak_torque_nm=float(np.max(np.linalg.norm(run.torque_b, axis=1))),
+        **limits,
+        route_rotation_deg=(
+            None if not np.isfinite(run.route_rotation_deg) else float(run.route_rotation_deg)
+        ),
+        planner_step_us_median=float(np.median(step_s) * 1e6),
+        planner_step_us_p99=float(np.percentile(step_s, 99) * 1e6),
+        sim_time_s=sc.sim_time_s,
+        dt_s=sc.dt_s,
+        wall_time_s=run.wall_time_s,
+    )
+
+
+def constraint_margins_deg(sc: Scenario, t: np.ndarray, sigma_bn: np.ndarray) -> np.ndarray:
+    """Exact margins ``(N, n_c)`` of the attitudes at their times (the scenario's sky)."""
+    if sc.sky.static:
+        return sc.sky.exact_geometry.constraint_margins_deg(sigma_bn)
+    return sc.sky.constraint_margins_deg(t, sigma_bn)
+
+
+def _against_limits(run: RunResult, t_reach: float | None) -> dict[str, Any]:
+    """The run against its actuator limits.
+
+    ``rotation_deg`` is the rotation flown up to the arrival (the integral of
+    ``|omega_B| dt``); ``time_bound_s`` the rest-to-rest bound along it
+    (:func:`attitude_core.gnc.guidance.time_bound_s`) and ``time_ratio_to_bound`` the arrival
+    time over that bound (None without limits or without an arrival).
+    ``peak_torque_to_bound`` is the largest ``|u_i| / max_torque_nm_i`` and
+    ``peak_rate_to_bound`` the peak body rate over ``max_rate_rad_s``.
+    """
+    act = run.scenario.actuators
+    end = len(run.t) if t_reach is None else int(np.searchsorted(run.t, t_reach)) + 1
+    speed = np.linalg.norm(run.omega_b[:end], axis=1)
+    flown = float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(run.t[:end])))
+    limits = GuidanceLimits.from_actuators(
+        run.scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+    )
+    bound = time_bound_s(flown, act.max_rate_rad_s, limits.alpha_max_rad_s2)
+    ratio = None if bound is None or t_reach is None or bound <= 0.0 else t_reach / bound
+    torque_ratio = None
+    if act.max_torque_nm is not None:
+        torque_ratio = float(np.max(np.abs(run.torque_b) / np.asarray(act.max_torque_nm)))
+    rate_ratio = None
+    if act.max_rate_rad_s is not None:
+        rate_ratio = float(np.max(np.linalg.norm(run.omega_b, axis=1)) / act.max_rate_rad_s)
+    return {
+        "rotation_deg": float(np.degrees(flown)),
+        "time_bound_s": bound,
+        "time_ratio_to_bound": ratio,
+        "peak_torque_to_bound": torque_ratio,
+        "peak_rate_to_bound": rate_ratio,
+    }

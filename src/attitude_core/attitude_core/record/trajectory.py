@@ -1,0 +1,36 @@
+"""The sampled closed-loop trajectory of a run.
+
+One record for every source of a run: the offline loop
+(:func:`attitude_core.closed_loop.run_closed_loop`), a run rebuilt from its bag
+(``attitude_tools.bag.run_record``) and the reports; :mod:`attitude_core.record.summary`
+turns it into the run's figures.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from attitude_core.config.scenario import Scenario
+
+__all__ = ["RunResult"]
+
+
+@dataclass
+class RunResult:
+    """Sampled closed-loop trajectory; row ``k`` is time ``t_k`` (``N + 1`` rows)."""
+
+    scenario: Scenario
+    t: np.ndarray
+    sigma_bn: np.ndarray
+    omega_b: np.ndarray
+    torque_b: np.ndarray  # torque applied over [t_k, t_k+1); last row repeats
+    sigma_t: np.ndarray
+    omega_t: np.ndarray
+    obstacle_distance_mrp: np.ndarray
+    planner_status: np.ndarray  # PlannerStatus.code
+    planner_step_s: np.ndarray  # wall time of each planner step call
+    wall_time_s: float
+    planner_reason: str = ""  # why the planner reported infeasible ("" otherwise)
+    route_rotation_deg: float = float("nan")  # the planner's first global route, deg

@@ -1,0 +1,413 @@
+"""The simulator's stepping logic without ROS: start-up gate, lockstep handshake, real time.
+
+:class:`SimStepper` owns the rigid body (eqs. 3-4, RK4, shadow set) and decides, given
+the current wall time (``now``, monotonic seconds) and each input, what the simulator
+node must do; the node only converts messages and publishes what it is told.
+
+* Start-up: :meth:`poll_graph` with whether the graph is connected. The first step is
+  taken once it has stayed connected for :data:`SETTLE_S` (every endpoint has matched);
+  the run fails after ``startup_timeout_s`` without.
+* Lockstep (stamps are simulated time ``k dt``): the state of step ``k`` is published and
+  the body advances only on the torque stamped ``k`` (:meth:`on_torque`). :meth:`on_timer`
+  re-sends the state every ``resend_period_s`` while it is missing; after
+  ``torque_timeout_s`` the last torque is held for the step, at most ``max_held_steps``
+  steps in a row, then the torque is stale and zero torque is applied until a
+  controller answers again.
+* Real time (stamps are the node's clock): :meth:`on_timer` is called every ``dt_s`` and
+  steps with the latest torque held; a torque older than ``torque_stale_s`` (wall time
+  since it arrived) is stale: zero torque. A torque stamped before the one applied is
+  refused.
+
+In both modes a torque is judged by the step it answers: its stamp must be one of the
+last :data:`ANSWERABLE_STATES` states this simulator published, so a torque stamped
+ahead (a stray message, a day in the future) is refused and counted and can never make
+the real answers look old. Torques that are non-finite or beyond the plausible bound
+(:func:`attitude_core.runtime.plausibility.torque_bound_nm`: ``actuators.max_torque_nm`` when
+set) are refused, never integrated; should the state still become non-finite, the
+simulator stops (exit 1) rather than publish it. The run ends (exit code 0) after
+``n_steps`` steps.
+"""
+
+from __future__ import annotations
+
+import enum
+from collections import deque
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.time_mode import TimeMode
+from attitude_core.contract.topics import BODY_FRAME, NS_PER_S
+from attitude_core.gnc.actuators import clip_to_bound
+from attitude_core.gnc.dynamics import RigidBody
+from attitude_core.runtime.plausibility import (
+    DEFAULT_MAX_TORQUE_NM,
+    implausible_torque,
+    torque_bound_nm,
+)
+
+if TYPE_CHECKING:
+    from attitude_core.config.node_parameters import SimulatorParams
+
+__all__ = ["Action", "StepperConfig", "StateOut", "Decision", "SimStepper", "SETTLE_S"]
+
+SETTLE_S = 0.2
+"""Wall time the graph must stay connected before the first step, s."""
+ANSWERABLE_STATES = 100
+"""A torque must answer one of the last this many published states (10 s at 0.1 s)."""
+
+Vector = npt.NDArray[np.float64]
+
+
+class Action(enum.Enum):
+    """What a call decided."""
+
+    WAIT = "wait"  # start-up: not connected yet (or settling)
+    START = "start"  # start-up: connected; the first state is published
+    FAIL = "fail"  # start-up: not connected before startup_timeout_s
+    NONE = "none"  # nothing to do
+    IGNORE = "ignore"  # lockstep: a torque for another step
+    REJECT = "reject"  # an unusable torque; ``reason`` says why
+    ACCEPT = "accept"  # real time: the torque is applied from the next step on
+    RESEND = "resend"  # lockstep: publish the same state again
+    ADVANCE = "advance"  # the body advanced one step with the commanded torque
+    HOLD = "hold"  # lockstep timeout: advanced with the last torque held
+    ZERO = "zero"  # stale torque: advanced with zero torque
+    FINISH = "finish"  # the scenario time has ended; ``exit_code`` 0
+
+
+@dataclass(frozen=True)
+class StepperConfig:
+    """The simulator's own parameters (:data:`attitude_core.config.node_parameters.SIMULATOR`)
+    and the scenario's step."""
+
+    dt_s: float
+    n_steps: int
+    time_mode: TimeMode = TimeMode.LOCKSTEP
+    resend_period_s: float = 0.2
+    torque_timeout_s: float = 2.0
+    max_held_steps: int = 1
+    torque_stale_s: float = 0.5
+    startup_timeout_s: float = 60.0
+    max_torque_nm: tuple[float, float, float] | None = None  # the plant's bound, per axis
+    plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3
+
+    def __post_init__(self) -> None:
+        if self.time_mode not in tuple(TimeMode):
+            modes = [m.value for m in TimeMode]
+            raise ValueError(f"time_mode must be one of {modes}, got {self.time_mode!r}")
+        object.__setattr__(self, "time_mode", TimeMode(self.time_mode))
+
+    @classmethod
+    def from_parameters(
+        cls,
+        params: SimulatorParams,
+        dt_s: float,
+        n_steps: int,
+        max_torque_nm: tuple[float, float, float] | None = None,
+        plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3,
+    ) -> StepperConfig:
+        """From the simulator node's parameters."""
+        return cls(
+            max_torque_nm=max_torque_nm,
+            plausible_torque_nm=plausible_torque_nm,
+            dt_s=dt_s,
+            n_steps=n_steps,
+            time_mode=params.time_mode,
+            resend_period_s=params.lockstep.resend_period_s,
+            torque_timeout_s=params.lockstep.torque_timeout_s,
+            max_held_steps=params.lockstep.max_held_steps,
+            torque_stale_s=params.realtime.torque_stale_s,
+            startup_timeout_s=params.startup_timeout_s,
+        )
+
+
+@dataclass(frozen=True)
+class StateOut:
+    """A state to publish: ``stamp_ns`` on attitude and rate; ``clock_ns`` on ``/clock``
+    in lockstep, where it is the simulated time the stamps carry (None in real time:
+    there the stamps are the node's clock and no ``/clock`` is published)."""
+
+    k: int
+    stamp_ns: int
+    clock_ns: int | None
+    sigma_bn: Vector
+    omega_b: Vector
+
+
+@dataclass
+class Decision:
+    """The outcome of one call. ``applied``: publish this torque, stamped with the
+    previous state, as applied over the step just taken. ``state``: publish this state
+    (``resend``: the current one again). ``logs``: (level, text) pairs to log."""
+
+    action: Action
+    applied: Vector | None = None
+    applied_stamp_ns: int | None = None
+    state: StateOut | None = None
+    exit_code: int | None = None
+    reason: str | None = None
+    logs: list[tuple[str, str]] = field(default_factory=list)
+
+    @property
+    def resend(self) -> bool:
+        """Publish the current state again (lockstep, its torque still missing)."""
+        return self.action is Action.RESEND
+
+
+class SimStepper:
+    """See the module docstring. ``created`` is the wall time the start-up clock starts."""
+
+    def __init__(self, config: StepperConfig, body: RigidBody, created: float) -> None:
+        self.cfg = config
+        self.body = body
+        self.dt_ns = int(round(config.dt_s * NS_PER_S))
+        self.k = 0
+        self.torque: Vector = np.zeros(3)
+        self.waiting_stamp: int | None = None  # lockstep: the state awaiting its torque
+        self.state_stamp: int | None = None  # stamp of the state last published
+        self.published: deque[int] = deque(maxlen=ANSWERABLE_STATES)  # stamps a torque answers
+        self.sent_at = self.first_sent_at = 0.0
+        self.resends = self.timeouts = self.rejected = 0
+        self.saturated_steps = 0  # steps whose torque the plant's bound clipped
+        self.held_steps = 0  # lockstep: consecutive timed-out steps
+        self.torque_stamp = -1  # real time: stamp of the applied torque
+        self.torque_received_at: float | None = None
+        self.stale = False
+        self.done = False
+        self.exit_code: int | None = None
+        self.created = created
+        self.ready_since: float | None = None
+        self.started_at: float | None = None
+
+    @classmethod
+    def from_scenario(
+        cls, scenario: Scenario, parameters: SimulatorParams, created: float
+    ) -> SimStepper:
+        """The stepper of a scenario's body, with the simulator node's parameters."""
+        declared = scenario.actuators.max_torque_nm
+        weaker = float(parameters.fault.wheel_torque_fraction)
+        plant = None if declared is None else (
+            float(declared[0]) * weaker,
+            float(declared[1]) * weaker,
+            float(declared[2]) * weaker,
+        )  # fmt: skip
+        config = StepperConfig.from_parameters(
+            parameters, scenario.dt_s, scenario.n_steps, plant, torque_bound_nm(scenario)
+        )
+        body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
+        return cls(config, body, created)
+
+    @property
+    def lockstep(self) -> bool:
+        return self.cfg.time_mode is TimeMode.LOCKSTEP
+
+    # -- start-up -------------------------------------------------------------------
+
+    def poll_graph(self, now: float, ready: bool) -> Decision:
+        """Called periodically before the first step; START publishes the first state
+        in lockstep (real time: call :meth:`on_timer` at once, then every ``dt_s``)."""
+        if self.started_at is not None or self.done:
+            return Decision(Action.NONE)
+        if not ready:
+            self.ready_since = None
+            if now - self.created > self.cfg.startup_timeout_s:
+                self._finish(1)
+                return Decision(
+                    Action.FAIL,
+                    exit_code=1,
+                    logs=[("error", f"graph not connected after {self.cfg.startup_timeout_s} s")],
+                )
+            return Decision(Action.WAIT)
+        if self.ready_since is None:
+            self.ready_since = now
+        if now - self.ready_since < SETTLE_S:
+            return Decision(Action.WAIT)
+        self.started_at = now
+        decision = Decision(Action.START, logs=[("info", "graph connected; starting")])
+        if self.lockstep:
+            decision.state = self._state(now, self.k * self.dt_ns)
+        return decision
+
+    # -- inputs ---------------------------------------------------------------------
+
+    def on_torque(
+        self, now: float, stamp_ns: int, torque: Vector, frame_id: str = BODY_FRAME
+    ) -> Decision:
+        """A commanded torque (body axes, N m) stamped ``stamp_ns``, in ``frame_id``."""
+        u = np.asarray(torque, dtype=float)
+        if frame_id != BODY_FRAME:
+            return self._reject(f"frame_id {frame_id!r}, expected {BODY_FRAME!r}")
+        reason = implausible_torque(u.tolist(), self.cfg.plausible_torque_nm)
+        if reason:
+            return self._reject(reason)
+        if self.done or self.started_at is None:
+            return Decision(Action.IGNORE)
+        if stamp_ns not in self.published:  # the step it answers decides, not its stamp
+            return self._reject(
+                f"stamp {stamp_ns} ns answers no state this simulator published "
+                f"(the last is {self.state_stamp} ns)"
+            )
+        if not self.lockstep:
+            if stamp_ns < self.torque_stamp:
+                return self._reject(
+                    f"stamp {stamp_ns} ns is older than the applied torque's {self.torque_stamp} ns"
+                )
+            self.torque, self.torque_stamp = u, stamp_ns
+            self.torque_received_at = now
+            return Decision(Action.ACCEPT, logs=self._set_stale(False))
+        if stamp_ns != self.waiting_stamp:
+            return Decision(Action.IGNORE)
+        self.held_steps = 0
+        logs = self._set_stale(False)
+        decision = self._advance(now, u, Action.ADVANCE)
+        decision.logs[:0] = logs
+        return decision
+
+    def on_timer(self, now: float, clock_ns: int = 0) -> Decision:
+        """Lockstep: the torque deadline check (call often, e.g. every 20 ms). Real time:
+        one step (call every ``dt_s``; ``clock_ns`` is the node's clock, the stamp)."""
+        if self.done or self.started_at is None:
+            return Decision(Action.NONE)
+        return self._deadline(now) if self.lockstep else self._tick(now, clock_ns)
+
+    # -- lockstep -------------------------------------------------------------------
+
+    def _deadline(self, now: float) -> Decision:
+        if self.waiting_stamp is None:
+            return Decision(Action.NONE)
+        if now - self.first_sent_at > self.cfg.torque_timeout_s:
+            self.timeouts += 1
+            self.held_steps += 1
+            if self.held_steps > self.cfg.max_held_steps:
+                logs = self._set_stale(True)
+                self.torque = np.zeros(3)
+                action = Action.ZERO
+            else:
+                logs = [
+                    (
+                        "warning",
+                        f"no torque for step {self.k} after "
+                        f"{self.cfg.torque_timeout_s} s; holding the last torque "
+                        f"{self.torque.tolist()} N m",
+                    )
+                ]
+                action = Action.HOLD
+            decision = self._advance(now, self.torque, action)
+            decision.logs[:0] = logs
+            return decision
+        if now - self.sent_at > self.cfg.resend_period_s:
+            self.resends += 1
+            self.sent_at = now
+            return Decision(Action.RESEND)
+        return Decision(Action.NONE)
+
+    def _advance(self, now: float, torque: Vector, action: Action) -> Decision:
+        """The torque for step k is known: integrate to k + 1 and publish that state."""
+        self.torque = torque
+        self.waiting_stamp = None
+        applied, applied_stamp = self._bounded(torque), self.state_stamp
+        if self.k >= self.cfg.n_steps:
+            decision = self._end(now, applied)
+            decision.applied_stamp_ns = applied_stamp
+            return decision
+        self.body.step(applied, self.cfg.dt_s)
+        if not self._finite_state():
+            return self._diverged()
+        self.k += 1
+        return Decision(
+            action,
+            applied=applied,
+            applied_stamp_ns=applied_stamp,
+            state=self._state(now, self.k * self.dt_ns),
+        )
+
+    # -- real time ------------------------------------------------------------------
+
+    def _tick(self, now: float, clock_ns: int) -> Decision:
+        if self.k > self.cfg.n_steps:
+            return self._end(now, None)
+        logs: list[tuple[str, str]] = []
+        action = Action.ADVANCE
+        if (
+            self.torque_received_at is not None
+            and now - self.torque_received_at > self.cfg.torque_stale_s
+        ):
+            logs = self._set_stale(True)
+            self.torque = np.zeros(3)
+            self.torque_received_at = None
+        if self.stale:
+            action = Action.ZERO
+        applied, applied_stamp = None, None
+        if self.k > 0:
+            applied, applied_stamp = self._bounded(self.torque), self.state_stamp
+            self.body.step(applied, self.cfg.dt_s)
+            if not self._finite_state():
+                return self._diverged()
+        state = self._state(now, clock_ns)
+        self.k += 1
+        return Decision(
+            action, applied=applied, applied_stamp_ns=applied_stamp, state=state, logs=logs
+        )
+
+    # -- shared ---------------------------------------------------------------------
+
+    def _state(self, now: float, stamp_ns: int) -> StateOut:
+        clock_ns = self.k * self.dt_ns if self.lockstep else None
+        self.state_stamp = stamp_ns
+        if not self.published or self.published[-1] != stamp_ns:
+            self.published.append(stamp_ns)
+        if self.lockstep:
+            self.waiting_stamp = stamp_ns
+        self.sent_at = self.first_sent_at = now
+        return StateOut(
+            self.k, stamp_ns, clock_ns, self.body.sigma_bn.copy(), self.body.omega_b.copy()
+        )
+
+    def _bounded(self, torque: Vector) -> Vector:
+        """The torque the body gets: clipped per axis to the plant's bound, as independent
+        wheels saturate (:func:`attitude_core.gnc.actuators.clip_to_bound`)."""
+        applied, saturated = clip_to_bound(torque, self.cfg.max_torque_nm)
+        self.saturated_steps += int(saturated)
+        return np.array(applied, dtype=float)
+
+    def _finite_state(self) -> bool:
+        return bool(np.isfinite(self.body.sigma_bn).all() and np.isfinite(self.body.omega_b).all())
+
+    def _diverged(self) -> Decision:
+        """The state is no longer finite: stop, never publish it."""
+        self._finish(1)
+        text = f"state became non-finite at step {self.k}: stopping (nothing more is published)"
+        return Decision(Action.FAIL, exit_code=1, logs=[("error", text)])
+
+    def _reject(self, reason: str) -> Decision:
+        self.rejected += 1
+        return Decision(Action.REJECT, reason=reason)
+
+    def _set_stale(self, stale: bool) -> list[tuple[str, str]]:
+        logs = []
+        if stale and not self.stale:
+            logs.append(
+                ("error", "torque is stale: applying zero torque until a controller answers again")
+            )
+        elif self.stale and not stale:
+            logs.append(("info", "torque received again"))
+        self.stale = stale
+        return logs
+
+    def _end(self, now: float, applied: Vector | None) -> Decision:
+        self._finish(0)
+        wall = now - (self.started_at if self.started_at is not None else now)
+        n = self.cfg.n_steps
+        text = (
+            f"scenario time ended: {n} steps in {wall:.3f} s wall "
+            f"({n / max(wall, 1e-9):.0f} steps/s); {self.resends} re-sends, "
+            f"{self.timeouts} torque timeouts, {self.rejected} rejected torques"
+        )
+        return Decision(Action.FINISH, applied=applied, exit_code=0, logs=[("info", text)])
+
+    def _finish(self, code: int) -> None:
+        self.done, self.exit_code = True, code

@@ -1,0 +1,162 @@
+"""A run rebuilt from its recording alone: bag directory -> ``RunResult``.
+
+Step ``k`` of the run is a state stamp for which the bag holds the attitude, the body
+rate and the torque applied over the step, all with that stamp. The torque is the
+simulator's ``applied_torque``; only a bag with none at all (a plant that does not
+publish it) falls back to the commanded torque. Commanded torques are never mixed in
+where applied ones are missing: anyone can publish a torque with a step's stamp (a stray
+node, a flood), only what the plant applied tells what the body got. Re-sent messages
+(same topic, same stamp) count once. Steps are taken in stamp order up to the first
+incomplete one, so the result is the same as the offline runner's ``RunResult`` for
+the recorded span. A step without a planner target (the planner was down) has NaN
+target rows. ``t`` is relative to the first stamp. States before the first complete
+step, or more than 5 s after the last, are off the run's timeline (a stray publisher's
+stamps, which the recorder keeps as evidence) and are not steps. Only the planner's
+own ``/diagnostics`` (status name ``fepf_planner``) give step data; the nodes' run
+identities there do not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from attitude_core.config.scenario import Scenario, loads_scenario
+from attitude_core.contract.diagnostics import STATUS_NAME, PlannerDiagnostics
+from attitude_core.contract.status import PlannerStatus
+from attitude_core.contract.topics import (
+    ANGULAR_VELOCITY,
+    APPLIED_TORQUE,
+    ATTITUDE,
+    DIAGNOSTICS,
+    TARGET_MRP,
+    TARGET_RATE,
+    TORQUE,
+    stamp_ns,
+)
+from attitude_core.gnc.mrp import mrp_from_quat
+from attitude_core.record.summary import summarize
+from attitude_core.record.trajectory import RunResult
+from attitude_tools.bag.reader import read_attachment, read_bag
+
+_TOPICS = (ATTITUDE, ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE, TORQUE, APPLIED_TORQUE, DIAGNOSTICS)
+
+
+@dataclass
+class BagRun:
+    run: RunResult
+    stamps_ns: npt.NDArray[np.int64]  # state stamp of each step
+    receive_wall_ns: npt.NDArray[np.int64]  # recorder receive time of each step's attitude
+    incomplete_steps: int  # state stamps after the last complete step
+
+
+TRAILING_STATES_NS = 5 * 10**9
+"""States this long after the last complete step are the run's unanswered tail; later
+ones, and any before the first complete step, are not on the run's timeline."""
+
+
+def _xyz(v: Any) -> tuple[float, float, float]:
+    return (v.x, v.y, v.z)
+
+
+def scenario_from_bag(bag_dir: str) -> Scenario:
+    """The scenario stored in the bag (attachment ``scenario.yaml``)."""
+    text = read_attachment(bag_dir, "scenario.yaml").decode("utf-8")
+    return loads_scenario(text, f"{bag_dir}: attachment scenario.yaml")
+
+
+def run_from_bag(
+    bag_dir: str, scenario: Scenario | None = None, wall_time_s: float = float("nan")
+) -> BagRun:
+    """Rebuild the sampled trajectory of a recorded run (see module docstring)."""
+    if scenario is None:
+        scenario = scenario_from_bag(bag_dir)
+    by_topic: dict[str, dict[int, Any]] = {t: {} for t in _TOPICS}  # deserialized messages
+    wall: dict[int, int] = {}
+    for m in read_bag(bag_dir, list(by_topic)):
+        stamp = stamp_ns(m.msg.header.stamp)
+        if m.topic == DIAGNOSTICS and not any(st.name == STATUS_NAME for st in m.msg.status):
+            continue  # another node's diagnostics (a run identity): no step data
+        by_topic[m.topic][stamp] = m.msg
+        if m.topic == ATTITUDE:
+            wall.setdefault(stamp, m.publish_time_ns)
+    states = sorted(by_topic[ATTITUDE])
+    applied = by_topic[APPLIED_TORQUE]
+    source = applied if applied else by_topic[TORQUE]
+    torque: dict[int, Any] = {s: source.get(s) for s in states}
+    complete = [s for s in states if s in by_topic[ANGULAR_VELOCITY] and torque[s] is not None]
+    if complete:  # states off the run's timeline (stray stamps, kept as evidence) are no steps
+        states = [s for s in states if complete[0] <= s <= complete[-1] + TRAILING_STATES_NS]
+    n = 0
+    while (
+        n < len(states)
+        and states[n] in by_topic[ANGULAR_VELOCITY]
+        and torque[states[n]] is not None
+    ):
+        n += 1
+    if n == 0:
+        raise ValueError(f"{bag_dir}: no complete step (state and torque of one stamp)")
+    stamps = np.array(states[:n], dtype=np.int64)
+    nan3 = (np.nan, np.nan, np.nan)
+
+    def rows(topic: str, get: Callable[[Any], Sequence[float]]) -> npt.NDArray[np.float64]:
+        found = by_topic[topic]
+        return np.array([get(found[s]) if s in found else nan3 for s in states[:n]], dtype=float)
+
+    quat = rows(
+        ATTITUDE, lambda m: (m.quaternion.x, m.quaternion.y, m.quaternion.z, m.quaternion.w)
+    )
+    status = np.full(n, PlannerStatus.TRACKING.code, dtype=np.int8)
+    d_obs = np.full(n, np.nan)
+    step_s = np.full(n, np.nan)
+    reason, route_deg = "", float("nan")
+    for k, s in enumerate(states[:n]):
+        diag = by_topic[DIAGNOSTICS].get(s)
+        if diag is None or not diag.status:
+            continue
+        try:
+            planner = PlannerDiagnostics.from_values(
+                {kv.key: kv.value for kv in diag.status[0].values}
+            )
+        except ValueError:  # not the planner's diagnostics: the step keeps no planner data
+            continue
+        status[k] = planner.status.code
+        d_obs[k] = planner.obstacle_distance_mrp
+        step_s[k] = planner.step_time_s
+        reason = planner.reason or reason
+        if np.isnan(route_deg):
+            route_deg = planner.route_rotation_deg
+    run = RunResult(
+        scenario=scenario,
+        t=(stamps - stamps[0]) * 1e-9,
+        sigma_bn=mrp_from_quat(quat),
+        omega_b=rows(ANGULAR_VELOCITY, lambda m: _xyz(m.vector)),
+        torque_b=np.array([_xyz(torque[s].wrench.torque) for s in states[:n]], dtype=float),
+        sigma_t=rows(TARGET_MRP, lambda m: _xyz(m.vector)),
+        omega_t=rows(TARGET_RATE, lambda m: _xyz(m.vector)),
+        obstacle_distance_mrp=d_obs,
+        planner_status=status,
+        planner_step_s=step_s,
+        wall_time_s=wall_time_s,
+        planner_reason=reason,
+        route_rotation_deg=route_deg,
+    )
+    return BagRun(
+        run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64), len(states) - n
+    )
+
+
+def summarize_bag(bag_run: BagRun) -> dict[str, Any]:
+    """``attitude_core.record.trajectory.summarize`` of the recorded run, plus the recording's own
+    figures: ``steps_recorded`` and ``steps_per_s`` (from the recorder's receive times)."""
+    summary = summarize(bag_run.run).to_json()
+    wall = bag_run.receive_wall_ns
+    span_s = (int(wall[-1]) - int(wall[0])) * 1e-9
+    steps = len(bag_run.stamps_ns)
+    summary["steps_recorded"] = steps
+    summary["steps_per_s"] = (steps - 1) / span_s if span_s > 0 else None
+    return summary

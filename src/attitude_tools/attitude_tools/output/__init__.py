@@ -1,0 +1,1 @@
+"""Output directories published whole, and strict JSON."""

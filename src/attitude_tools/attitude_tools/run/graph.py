@@ -1,0 +1,67 @@
+"""The node processes of one run, started with ``ros2 run``, with their logs."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from attitude_core.contract.node_graph import NodeSpec
+from attitude_core.runtime.process_identity import OWNER_ENV, ProcessIdentity
+from attitude_tools.run.processes import die_with_parent
+
+__all__ = ["NodeGraph"]
+
+
+class NodeGraph:
+    """The four node processes of one run, with their logs."""
+
+    def __init__(self, ros2: str, env: dict[str, str], log_dir: Path, cwd: Path) -> None:
+        self.ros2, self.env, self.log_dir, self.cwd = ros2, env, log_dir, cwd
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+
+    def start(self, spec: NodeSpec[Any], ros_args: list[str], name: str | None = None) -> None:
+        """Start ``spec``'s executable; its log and key are ``name`` (default: its role)."""
+        name = spec.role if name is None else name
+        env = {**self.env, OWNER_ENV: ProcessIdentity.current().encode()}  # parent watchdog
+        with open(self.log_dir / f"{name}.log", "wb") as log:  # the child keeps its copy
+            self.procs[name] = subprocess.Popen(
+                [self.ros2, "run", spec.package, spec.executable, "--ros-args", *ros_args],
+                env=env,
+                cwd=self.cwd,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                stdin=subprocess.DEVNULL,
+                start_new_session=True,
+                preexec_fn=die_with_parent(),  # SIGTERM when we die, even by SIGKILL
+            )  # we, not the terminal, decide the shutdown order
+
+    def exited(self) -> dict[str, int]:
+        return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}
+
+    def stop(self, names: Sequence[str], grace_s: float) -> dict[str, int]:
+        """SIGINT to each, wait up to ``grace_s`` together, then SIGKILL the rest."""
+        live = [self.procs[n] for n in names if self.procs[n].poll() is None]
+        for p in live:
+            p.send_signal(signal.SIGINT)
+        deadline = time.monotonic() + grace_s
+        for p in live:
+            try:
+                p.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+        return {n: self.procs[n].returncode for n in names}
+
+    def error_line(self, name: str) -> str:
+        """The last line of ``name``'s log that reports an error (else its last line)."""
+        text = (self.log_dir / f"{name}.log").read_text(errors="replace").splitlines()
+        errors = [line for line in text if "error" in line.lower()]
+        return (errors or text or ["(empty log)"])[-1].strip()
+
+    def tail(self, name: str, lines: int = 15) -> str:
+        text = (self.log_dir / f"{name}.log").read_text(errors="replace").splitlines()
+        return "\n".join(f"    {line}" for line in text[-lines:])

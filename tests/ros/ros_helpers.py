@@ -1,0 +1,88 @@
+"""Helpers of the ROS 2 tests: the example hardware bridge against ``attitude-run``, and
+a probe that listens like the recorder.
+
+Imported as ``from ros_helpers import ...`` (pytest puts ``tests/ros/`` on ``sys.path``
+for the test modules in it).
+"""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+from pathlib import Path
+
+from support import _attitude_run_args
+
+
+def start_bridge(
+    scenario: Path, env: dict[str, str], log: Path, *params: str, namespace: str = "/"
+) -> subprocess.Popen[bytes]:
+    """The example hardware bridge (``spacecraft_bridge_example``) on ``scenario``, with
+    the node table's state listeners and extra ``-p`` parameters (``"time_mode:=realtime"``),
+    in ``namespace`` (a run's, to join it), its output in ``log``. The caller stops it
+    (SIGINT) and waits for it."""
+    from attitude_core.contract.node_graph import state_listeners
+
+    ros2 = shutil.which("ros2", path=env["PATH"])
+    assert ros2 is not None
+    extra = [arg for param in params for arg in ("-p", param)]
+    with open(log, "wb") as out:
+        return subprocess.Popen(
+            [ros2, "run", "spacecraft_bridge_example", "bridge", "--ros-args",
+             "-r", f"__ns:={namespace}", "--params-file", str(scenario), *extra,
+             "-p", f"lockstep.expected_subscribers:={state_listeners()}"],
+            env=env, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        )  # fmt: skip
+
+
+def run_with_bridge(
+    scenario: Path,
+    out: Path,
+    env: dict[str, str],
+    log: Path,
+    run_args: tuple[str, ...] = (),
+    bridge_params: tuple[str, ...] = (),
+    timeout_s: float = 600.0,
+) -> tuple[subprocess.CompletedProcess[str], int]:
+    """``attitude-run --plant external`` on ``scenario`` against :func:`start_bridge`; the
+    bridge outlives the run and is stopped (SIGINT) after it, as a user would. Returns
+    the run (return code, stdout, stderr) and the bridge's return code."""
+    from attitude_core.runtime.run_identity import run_namespace
+
+    namespace = run_namespace()  # the bridge joins the run
+    args = _attitude_run_args(
+        scenario, out, ("--plant", "external", "--run-namespace", namespace, *run_args)
+    )
+    run = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    bridge = start_bridge(scenario, env, log, *bridge_params, namespace=namespace)
+    try:
+        stdout, stderr = run.communicate(timeout=timeout_s)
+    finally:
+        if run.poll() is None:
+            run.kill()
+        bridge.send_signal(signal.SIGINT)
+        bridge.wait(30)
+    return subprocess.CompletedProcess(args, run.returncode, stdout, stderr), bridge.returncode
+
+
+def listen_like_a_recorder(node, on_state, depth: int = 10) -> None:
+    """Subscribe ``node`` (a test's probe) to the state, the target and the torque, with
+    ``on_state(msg)`` on ``/spacecraft/attitude``: it listens where a recorder listens,
+    so the simulator's graph wait counts it as one (``lockstep.expected_subscribers``)."""
+    from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+    from rclpy.qos import QoSProfile, ReliabilityPolicy
+
+    from attitude_core.contract.topics import (
+        ANGULAR_VELOCITY,
+        ATTITUDE,
+        TARGET_MRP,
+        TARGET_RATE,
+        TORQUE,
+    )
+
+    qos = QoSProfile(depth=depth, reliability=ReliabilityPolicy.RELIABLE)
+    node.create_subscription(QuaternionStamped, ATTITUDE, on_state, qos)
+    for name in (ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE):
+        node.create_subscription(Vector3Stamped, name, lambda msg: None, qos)
+    node.create_subscription(WrenchStamped, TORQUE, lambda msg: None, qos)

@@ -1,0 +1,82 @@
+"""Helpers shared by the test folders (core/, tools/, ros/): the repository root, the
+workspace mark, and ``attitude-run`` on a reserved ROS 2 domain.
+
+Imported as ``from support import ...``: ``tests/`` is on ``sys.path`` because pytest
+(default ``prepend`` import mode) inserts the directory of ``tests/conftest.py``, which
+is not in a package. The fixtures are in ``tests/conftest.py`` (every folder) and
+``tests/ros/conftest.py`` (ROS 2 tests only).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from attitude_tools.run.domain import DomainReservation, NoFreeDomain
+from attitude_tools.run.domain import reserve_domain as _reserve_domain
+
+ROOT = Path(__file__).resolve().parents[1]
+needs_workspace = pytest.mark.skipif(
+    not (ROOT / "ros2_ws" / "install" / "setup.bash").exists(),
+    reason="colcon workspace not built (bash tools/bootstrap builds it)",
+)
+"""Mark for tests that start the project's nodes: they need the built colcon workspace."""
+
+
+def run_env(domain: int) -> dict[str, str]:
+    """The caller's environment on ROS domain ``domain``, discovery on this host only, for
+    ``attitude-run`` (which finds the workspace itself)."""
+    env = dict(os.environ)
+    env["ROS_DOMAIN_ID"] = str(domain)
+    env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+    env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
+    return env
+
+
+ATTITUDE_RUN = str(Path(sys.prefix) / "bin" / "attitude-run")
+
+
+def _attitude_run_args(scenario: Path | str, out: Path | str, extra: tuple[str, ...]) -> list[str]:
+    return [ATTITUDE_RUN, str(scenario), "--out", str(out), "--quiet", *extra]
+
+
+def attitude_run(
+    scenario: Path | str, out: Path | str, domain: int, *extra: str, timeout: float = 180
+) -> subprocess.CompletedProcess[str]:
+    """``attitude-run SCENARIO --out OUT --quiet EXTRA...`` on ROS domain ``domain``."""
+    return subprocess.run(
+        _attitude_run_args(scenario, out, extra),
+        env=run_env(domain),
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+def spawn_attitude_run(
+    scenario: Path | str, out: Path | str, env: dict[str, str], *extra: str, **popen: Any
+) -> subprocess.Popen[str]:
+    """The same, started in the background with ``env`` (:func:`run_env` for a domain of
+    its own); stdout and stderr are piped, as text."""
+    return subprocess.Popen(
+        _attitude_run_args(scenario, out, extra),
+        env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **popen,
+    )
+
+
+def reserve_domain() -> DomainReservation:
+    """Reserve a free ROS domain ID (:func:`attitude_tools.run.domain.reserve_domain`); fail
+    the test if none is free."""
+    try:
+        return _reserve_domain()
+    except NoFreeDomain as err:
+        pytest.fail(str(err), pytrace=False)

@@ -1,0 +1,534 @@
+"""attitude-report on real recorded bags: figures, report.html and summary.json.
+
+The module fixture records paper Case 1 twice through the ROS 2 node graph
+(``attitude-run``, improved and paper-faithful planners, each on its own reserved
+``ROS_DOMAIN_ID`` (conftest.py) with localhost-only discovery, both at once), then the tests run the
+``attitude-report`` command on those run directories. The geometry helpers are tested
+without ROS.
+"""
+
+import base64
+import html
+import json
+import os
+import re
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from attitude_core.gnc.constraints import ConeGeometry
+from attitude_tools.report.figures import FIGURES
+from attitude_tools.report.geometry import (
+    Pair,
+    boresight_inertial,
+    break_wraps,
+    mrp_surface,
+    ra_dec_deg,
+    small_circle,
+)
+from attitude_tools.report.html import format_value
+
+ROOT = Path(__file__).resolve().parents[2]
+BIN = Path(sys.prefix) / "bin"
+HAVE_WORKSPACE = (ROOT / "ros2_ws" / "install" / "setup.bash").exists()
+COMPARED_KEYS = (
+    "reached",
+    "t_reach_s",
+    "min_margin_deg",
+    "min_margin_deg_per_pair",
+    "path_length_mrp",
+    "peak_torque_nm",
+    "final_rate_rad_s",
+    "planner_step_us_median",
+)
+
+
+def report(*args, timeout=120):
+    return subprocess.run(
+        [str(BIN / "attitude-report"), *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+
+
+@pytest.fixture(scope="module")
+def recorded(tmp_path_factory, reserve_ros_domain):
+    """Run directories of case1 (improved) and case1_paper, recorded through ROS."""
+    if not HAVE_WORKSPACE:
+        pytest.skip("colcon workspace not built (bash tools/bootstrap builds it)")
+    base = tmp_path_factory.mktemp("report_runs")
+    procs = {}
+    with reserve_ros_domain() as d1, reserve_ros_domain() as d2:
+        for name, domain in zip(("case1", "case1_paper"), (d1, d2), strict=True):
+            env = domain.env()
+            env.pop("AMENT_PREFIX_PATH", None)  # attitude-run finds the workspace itself
+            procs[name] = subprocess.Popen(
+                [
+                    str(BIN / "attitude-run"),
+                    str(ROOT / "scenarios" / f"{name}.yaml"),
+                    "--out",
+                    str(base / name),
+                    "--quiet",
+                ],
+                env=env,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.STDOUT,
+                text=True,
+            )
+        for name, proc in procs.items():
+            out, _ = proc.communicate(timeout=240)
+            assert proc.returncode == 0, f"{name}: {out}"
+    return {name: base / name for name in procs}
+
+
+@pytest.fixture(scope="module")
+def single(recorded):
+    """``attitude-report DIR`` on the improved Case 1 run; (run dir, seconds taken)."""
+    t0 = time.monotonic()
+    proc = report(recorded["case1"])
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return recorded["case1"], time.monotonic() - t0
+
+
+@pytest.fixture(scope="module")
+def comparison(recorded, tmp_path_factory):
+    out = tmp_path_factory.mktemp("report_cmp") / "paper_vs_improved"
+    proc = report(recorded["case1_paper"], recorded["case1"], "--out", out)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    return out
+
+
+def assert_valid_figure(path: Path) -> None:
+    assert path.is_file() and path.stat().st_size > 0, path
+    with Image.open(path) as im:
+        im.verify()
+    with Image.open(path) as im:
+        assert im.format == "PNG"
+        assert im.width > 300 and im.height > 300, (path, im.size)
+        rgb = im.convert("RGB")
+        assert any(lo != hi for lo, hi in rgb.getextrema()), f"{path}: one flat colour"
+        assert len(rgb.getcolors(maxcolors=1 << 24)) > 50, path
+
+
+def summary_cells(page: str) -> dict:
+    """data-key -> list of (exact JSON value, shown text) of the summary table cells."""
+    cells = {}
+    for key, exact, shown in re.findall(
+        r'<td[^>]*data-key="([^"]*)" data-value="([^"]*)"[^>]*>([^<]*)</td>', page
+    ):
+        cells.setdefault(html.unescape(key), []).append(
+            (json.loads(html.unescape(exact)), html.unescape(shown))
+        )
+    return cells
+
+
+def assert_self_contained(page: str, out: Path) -> None:
+    assert "http://" not in page and "https://" not in page
+    assert not re.search(r"""(src|href)\s*=\s*(?!["']?data:)""", page)
+    assert "<link" not in page and "<script" not in page
+    for name in FIGURES:
+        data = base64.b64encode((out / name).read_bytes()).decode("ascii")
+        assert f'src="data:image/png;base64,{data}"' in page, name
+
+
+# --- single run -----------------------------------------------------------------------
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_single_report_writes_every_figure_as_a_valid_png(single):
+    run_dir, seconds = single
+    out = run_dir / "report"
+    assert sorted(p.name for p in out.glob("*.png")) == sorted(FIGURES)
+    for name in FIGURES:
+        assert_valid_figure(out / name)
+    assert seconds < 60.0  # a few seconds on an idle machine; generous for loaded CI
+    assert not list(run_dir.glob(".tmp-report-*"))
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_single_report_html_is_self_contained_and_embeds_every_figure(single):
+    out = single[0] / "report"
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert page.startswith("<!DOCTYPE html>")
+    assert_self_contained(page, out)
+    assert "case1 (improved)" in page
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_single_report_numbers_equal_attitude_run_summary(single):
+    run_dir = single[0]
+    expected = json.loads((run_dir / "summary.json").read_text())
+    doc = json.loads((run_dir / "report" / "summary.json").read_text())
+    assert len(doc["runs"]) == 1
+    shown = doc["runs"][0]["summary"]
+    assert shown["reached"] is True and shown["t_reach_s"] is not None
+    for key in COMPARED_KEYS:
+        assert shown[key] == expected[key], key
+    # Every number the report shows that attitude-run also wrote is the same number.
+    for key, value in shown.items():
+        if key in expected:
+            assert value == expected[key], key
+    assert shown["time_mode"] == expected["time_mode"] == "lockstep"
+    assert shown["steps_recorded"] == expected["steps_recorded"]
+    # ...and the HTML table shows exactly those numbers.
+    cells = summary_cells((run_dir / "report" / "report.html").read_text(encoding="utf-8"))
+    for key in (
+        "reached",
+        "t_reach_s",
+        "min_margin_deg",
+        "path_length_mrp",
+        "peak_torque_nm",
+        "final_rate_rad_s",
+        "planner_step_us_median",
+    ):
+        assert cells[key] == [(shown[key], format_value(shown[key]))], key
+    for pair, value in shown["min_margin_deg_per_pair"].items():
+        assert cells[f"min_margin_deg_per_pair/{pair}"] == [(value, format_value(value))]
+    assert set(cells) >= {k for k in shown if k != "min_margin_deg_per_pair"}
+
+
+# --- comparison -------------------------------------------------------------------------
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_comparison_overlays_both_runs_in_figures_and_table(recorded, comparison):
+    for name in FIGURES:
+        assert_valid_figure(comparison / name)
+    page = (comparison / "report.html").read_text(encoding="utf-8")
+    assert_self_contained(page, comparison)
+    table = page[page.index('<table id="summary">') :]
+    table = table[: table.index("</table>")]
+    assert "<th>case1_paper (paper)</th>" in table and "<th>case1 (improved)</th>" in table
+    doc = json.loads((comparison / "summary.json").read_text())
+    assert [r["label"] for r in doc["runs"]] == ["case1_paper (paper)", "case1 (improved)"]
+    cells = summary_cells(page)
+    for k, name in enumerate(("case1_paper", "case1")):
+        expected = json.loads((recorded[name] / "summary.json").read_text())
+        shown = doc["runs"][k]["summary"]
+        for key in COMPARED_KEYS:
+            assert shown[key] == expected[key], (name, key)
+        assert cells["t_reach_s"][k] == (expected["t_reach_s"], format_value(expected["t_reach_s"]))
+    # The improved planner's point: lower peak torque than the paper-faithful FEPF.
+    assert doc["runs"][1]["summary"]["peak_torque_nm"] < doc["runs"][0]["summary"]["peak_torque_nm"]
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_comparison_labels_option_and_replacing_a_previous_report(recorded, tmp_path):
+    out = tmp_path / "cmp"
+    out.mkdir()
+    (out / "report.html").write_text("previous report")
+    (out / "stale.png").write_bytes(b"old")
+    proc = report(
+        recorded["case1_paper"],
+        recorded["case1"],
+        "--out",
+        out,
+        "--labels",
+        "paper FEPF",
+        "improved FEPF",
+        "--dpi",
+        "50",
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert not (out / "stale.png").exists()
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "<th>paper FEPF</th>" in page and "<th>improved FEPF</th>" in page
+    assert sorted(os.listdir(tmp_path)) == ["cmp"]  # no temporary siblings left
+
+
+# --- bad input ------------------------------------------------------------------------------
+
+
+def test_missing_bag_exits_2_and_writes_nothing(tmp_path):
+    run_dir = tmp_path / "run"
+    run_dir.mkdir()
+    (run_dir / "summary.json").write_text("{}")
+    proc = report(run_dir)
+    assert proc.returncode == 2
+    assert str(run_dir / "bag") in proc.stderr
+    assert sorted(os.listdir(run_dir)) == ["summary.json"]
+    proc = report(tmp_path / "absent", run_dir, "--out", tmp_path / "cmp")
+    assert proc.returncode == 2 and str(tmp_path / "absent" / "bag") in proc.stderr
+    assert sorted(os.listdir(tmp_path)) == ["run"]
+
+
+@pytest.mark.ros
+@pytest.mark.slow
+def test_unreadable_bag_exits_2_and_writes_nothing(recorded, tmp_path):
+    bag = tmp_path / "run" / "bag"
+    bag.mkdir(parents=True)
+    src = recorded["case1"] / "bag"
+    (bag / "metadata.yaml").write_bytes((src / "metadata.yaml").read_bytes())
+    (bag / "bag_0.mcap").write_bytes((src / "bag_0.mcap").read_bytes()[:4096])  # truncated
+    proc = report(tmp_path / "run")
+    assert proc.returncode == 2
+    assert str(bag) in proc.stderr
+    assert sorted(os.listdir(tmp_path / "run")) == ["bag"]
+
+
+# --- geometry (no ROS) ----------------------------------------------------------------------
+
+
+def test_small_circle_is_a_true_circle_on_the_sphere():
+    c = np.array([0.958, 0.0, 0.287])
+    pts = small_circle(c, 20.0)
+    angles = np.degrees(np.arccos(np.clip(pts @ (c / np.linalg.norm(c)), -1.0, 1.0)))
+    np.testing.assert_allclose(angles, 20.0, atol=1e-9)
+    ra, dec = ra_dec_deg(pts)
+    assert ra.min() >= 0.0 and ra.max() < 360.0
+    ra_b, dec_b = break_wraps(ra, dec)
+    assert np.isnan(ra_b).sum() >= 1  # this circle straddles RA = 0
+    finite = ra_b[np.isfinite(ra_b)]
+    jumps = np.abs(np.diff(ra_b))
+    assert np.all(jumps[np.isfinite(jumps)] < 180.0) and len(finite) == len(ra)
+
+
+def test_boresight_and_mrp_surface_agree_with_the_exact_margins():
+    pair = Pair("st", "obj", (1.0, 0.0, 0.0), 20.0, (0.0, -0.981, -0.196))
+    geometry = ConeGeometry(
+        np.array([pair.boresight_body]), np.array([20.0]), np.array([pair.direction_inertial])
+    )
+    sigma = np.random.default_rng(1).uniform(-0.6, 0.6, (50, 3))
+    b = boresight_inertial(sigma, pair.boresight_body)
+    c = np.array(pair.direction_inertial) / np.linalg.norm(pair.direction_inertial)
+    margin = np.degrees(np.arccos(np.clip(b @ c, -1.0, 1.0))) - 20.0
+    np.testing.assert_allclose(margin, geometry.margins_deg(sigma)[:, 0, 0], atol=1e-9)
+    triangles = mrp_surface(pair, n=40)
+    assert triangles.shape[1:] == (3, 3) and len(triangles) > 100
+    verts = triangles.reshape(-1, 3)
+    assert np.all(np.linalg.norm(verts, axis=1) <= 1.0 + 1e-9)
+    inner = verts[np.linalg.norm(verts, axis=1) < 0.95]
+    # On the zero level set, to the grid's resolution (spacing 2/39 MRP ~ a few degrees).
+    assert np.max(np.abs(geometry.margins_deg(inner)[:, 0, 0])) < 4.0
+
+
+# --- keep-in cones (no ROS: a bag written here, read back as attitude-report reads it) -----
+
+KEEP_IN_SCENARIO = ROOT / "scenarios" / "keep_in.yaml"
+
+
+def _eigenaxis_run(scenario_path: Path, seconds: float = 30.0, dt: float = 0.1):
+    """The straight eigenaxis slew from the scenario's start to its goal (SciPy slerp):
+    (t, sigma_bn, omega_b) sampled every ``dt``."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    from attitude_core.config.scenario import load_scenario
+
+    sc = load_scenario(scenario_path)
+    ends = Rotation.from_mrp(np.array([sc.initial_mrp, sc.desired_mrp]))  # active: C_NB
+    n = int(round(seconds / dt))
+    t = np.arange(n + 1) * dt
+    path = Slerp([0.0, seconds], ends)(t)
+    rate = (ends[0].inv() * ends[1]).as_rotvec() / seconds  # body axes, constant
+    return t, path.as_mrp(), np.tile(rate, (n + 1, 1))
+
+
+def _write_run_bag(bag_dir: Path, scenario_text: str, t, sigma, omega) -> None:
+    """A bag like the recorder's: state, applied torque and planner target per stamp,
+    and the scenario attached."""
+    from geometry_msgs.msg import QuaternionStamped, Vector3Stamped, WrenchStamped
+    from rclpy.serialization import serialize_message
+
+    from attitude_core.contract import topics
+    from attitude_core.gnc.mrp import quat_from_mrp
+    from attitude_tools.bag import BagWriter
+
+    def stamped(msg, ns, frame):
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(ns, 10**9)
+        msg.header.frame_id = frame
+        return msg
+
+    with BagWriter(str(bag_dir)) as bag:
+        for name in (
+            topics.ATTITUDE,
+            topics.ANGULAR_VELOCITY,
+            topics.APPLIED_TORQUE,
+            topics.TARGET_MRP,
+            topics.TARGET_RATE,
+        ):
+            bag.add_topic(name, topics.topic(name).type_name)
+        quats = quat_from_mrp(sigma)
+        for k in range(len(t)):
+            ns = int(round(t[k] * 1e9))
+            q = stamped(QuaternionStamped(), ns, "inertial")
+            q.quaternion.x, q.quaternion.y, q.quaternion.z, q.quaternion.w = map(float, quats[k])
+            w = stamped(Vector3Stamped(), ns, "body")
+            w.vector.x, w.vector.y, w.vector.z = map(float, omega[k])
+            target = stamped(Vector3Stamped(), ns, "inertial")
+            target.vector.x, target.vector.y, target.vector.z = map(float, sigma[k])
+            torque = stamped(WrenchStamped(), ns, "body")
+            target_rate = stamped(Vector3Stamped(), ns, "target")
+            log = 1_700_000_000_000_000_000 + ns
+            for name, msg in (
+                (topics.ATTITUDE, q),
+                (topics.ANGULAR_VELOCITY, w),
+                (topics.APPLIED_TORQUE, torque),
+                (topics.TARGET_MRP, target),
+                (topics.TARGET_RATE, target_rate),
+            ):
+                bag.write(name, serialize_message(msg), log)
+        bag.add_attachment("scenario.yaml", scenario_text.encode(), "application/yaml")
+
+
+@pytest.fixture(scope="module")
+def keep_in_run(tmp_path_factory):
+    """The keep_in scenario's direct eigenaxis slew (which leaves the sun sensor's cone),
+    recorded to a bag and rebuilt by the report's loader."""
+    from attitude_tools.report.data import load_run
+
+    run_dir = tmp_path_factory.mktemp("keep_in_report") / "run"
+    run_dir.mkdir()
+    t, sigma, omega = _eigenaxis_run(KEEP_IN_SCENARIO)
+    _write_run_bag(run_dir / "bag", KEEP_IN_SCENARIO.read_text(encoding="utf-8"), t, sigma, omega)
+    return load_run(str(run_dir))
+
+
+def _keep_in_reference(run, k: int = 0) -> np.ndarray:
+    """max_angle - angle(C_BN^T a, d) of the recorded attitudes, from SciPy's rotation."""
+    from scipy.spatial.transform import Rotation
+
+    sc = run.scenario
+    axes = Rotation.from_mrp(np.array(run.run.sigma_bn)).apply(np.array(sc.keep_in_axes_body[k]))
+    d = sc.keep_in_directions_inertial[k]
+    return sc.keep_in_max_angles_deg[k] - np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
+
+
+def _unit_from_ra_dec(ra, dec) -> np.ndarray:
+    ra, dec = np.radians(ra), np.radians(dec)
+    return np.stack([np.cos(dec) * np.cos(ra), np.cos(dec) * np.sin(ra), np.sin(dec)], -1)
+
+
+def _with_gid(fig, gid):
+    return [a for a in fig.findobj() if a.get_gid() == gid]
+
+
+def test_keep_in_run_summary_covers_the_keep_in_cone(keep_in_run):
+    sc = keep_in_run.scenario
+    assert sc.keep_in_names == ("sun_sensor",)  # the scenario attached to the bag
+    reference = _keep_in_reference(keep_in_run)
+    assert reference[0] > 5.0 and reference[-1] > 5.0 and reference.min() < -5.0  # leaves it
+    per = keep_in_run.summary["min_margin_deg_per_pair"]
+    assert list(per) == list(sc.constraint_names)
+    assert per["keep_in/sun_sensor"] == pytest.approx(reference.min(), abs=1e-9)
+    assert keep_in_run.summary["min_margin_deg"] <= reference.min() + 1e-9  # dense: all of them
+
+
+def test_keep_in_margin_figure_plots_the_geometry_margin_of_the_recorded_attitudes(keep_in_run):
+    import matplotlib.pyplot as plt
+
+    from attitude_tools.report import figures
+
+    ctx = figures._Context([keep_in_run], mrp_grid=24)
+    assert [c.key for c in ctx.keep_ins] == ["keep_in/sun_sensor"]
+    fig = figures.fig_margin(ctx)
+    try:
+        (line,) = _with_gid(fig, "keep_in/sun_sensor/margin")
+        assert line.get_label() == "keep_in/sun_sensor"
+        np.testing.assert_allclose(line.get_xdata(), keep_in_run.run.t)
+        np.testing.assert_allclose(line.get_ydata(), _keep_in_reference(keep_in_run), atol=1e-9)
+        assert "keep_in/sun_sensor" in [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
+    finally:
+        plt.close(fig)
+    # Compared with another run: a keep-in panel with both runs' series.
+    other = figures._Context([keep_in_run, keep_in_run], mrp_grid=24)
+    fig = figures.fig_margin(other)
+    try:
+        lines = _with_gid(fig, "keep_in/sun_sensor/margin")
+        assert len(lines) == 2
+        for line in lines:
+            np.testing.assert_allclose(line.get_ydata(), _keep_in_reference(keep_in_run), atol=1e-9)
+        assert "keep_in/sun_sensor (keep-in)" in [ax.get_title() for ax in fig.axes]
+    finally:
+        plt.close(fig)
+
+
+def test_keep_in_cone_and_axis_track_on_the_sky(keep_in_run):
+    import matplotlib.pyplot as plt
+    from scipy.spatial.transform import Rotation
+
+    from attitude_tools.report import figures
+
+    sc = keep_in_run.scenario
+    d, gamma = sc.keep_in_directions_inertial[0], 70.0
+    ctx = figures._Context([keep_in_run], mrp_grid=24)
+    for build in (figures.fig_keepout_inertial, figures.fig_trajectory_boresight):
+        fig = build(ctx)
+        try:
+            (cone,) = _with_gid(fig, "keep_in/sun_sensor/cone")
+            assert cone.get_linestyle() == "--" and cone.get_color() == "tab:green"
+            ra, dec = np.asarray(cone.get_xdata()), np.asarray(cone.get_ydata())
+            v = _unit_from_ra_dec(ra[np.isfinite(ra)], dec[np.isfinite(dec)])
+            angles = np.degrees(np.arccos(np.clip(v @ d, -1.0, 1.0)))
+            np.testing.assert_allclose(angles, gamma, atol=1e-9)  # the cone's rim
+        finally:
+            plt.close(fig)
+    fig = figures.fig_trajectory_boresight(ctx)
+    try:
+        assert len(fig.axes) == 2  # the star tracker's panel and the sun sensor's
+        (track,) = _with_gid(fig, "keep_in/sun_sensor/axis")
+        ra, dec = np.asarray(track.get_xdata()), np.asarray(track.get_ydata())
+        drawn = _unit_from_ra_dec(ra[np.isfinite(ra)], dec[np.isfinite(dec)])
+        axis = np.array(sc.keep_in_axes_body[0])
+        expected = Rotation.from_mrp(np.array(keep_in_run.run.sigma_bn)).apply(axis)
+        np.testing.assert_allclose(drawn, expected, atol=1e-9)
+        outside = np.degrees(np.arccos(np.clip(drawn @ d, -1.0, 1.0))) > gamma
+        assert outside.any() and not outside[0] and not outside[-1]
+    finally:
+        plt.close(fig)
+
+
+def test_keep_in_boundary_in_mrp_space(keep_in_run):
+    import matplotlib.pyplot as plt
+
+    from attitude_tools.report import figures
+    from attitude_tools.report.geometry import keep_ins_of
+
+    (cone,) = keep_ins_of([keep_in_run.scenario])
+    triangles = mrp_surface(cone, n=32)
+    verts = triangles.reshape(-1, 3)
+    assert np.all(np.linalg.norm(verts, axis=1) <= 1.0 + 1e-9)
+    inner = verts[np.linalg.norm(verts, axis=1) < 0.95]
+    # On the keep-in cone's rim, to the grid's resolution (spacing 2/31 MRP).
+    assert np.max(np.abs(_keep_in_reference_at(keep_in_run.scenario, inner))) < 6.0
+    fig = figures.fig_keepout_mrp(figures._Context([keep_in_run], mrp_grid=24))
+    try:
+        assert len(_with_gid(fig, "keep_in/sun_sensor/surface")) == 1
+    finally:
+        plt.close(fig)
+
+
+def _keep_in_reference_at(sc, sigma) -> np.ndarray:
+    from scipy.spatial.transform import Rotation
+
+    axes = Rotation.from_mrp(sigma).apply(np.array(sc.keep_in_axes_body[0]))
+    d = sc.keep_in_directions_inertial[0]
+    return sc.keep_in_max_angles_deg[0] - np.degrees(np.arccos(np.clip(axes @ d, -1.0, 1.0)))
+
+
+@pytest.mark.slow
+def test_keep_in_report_writes_the_cone_into_figures_table_and_summary(keep_in_run, tmp_path):
+    from attitude_tools.report.cli import write_report
+
+    out = Path(write_report([keep_in_run], str(tmp_path / "report"), mrp_grid=24))
+    for name in FIGURES:
+        assert_valid_figure(out / name)
+    doc = json.loads((out / "summary.json").read_text())
+    shown = doc["runs"][0]["summary"]["min_margin_deg_per_pair"]["keep_in/sun_sensor"]
+    assert shown == pytest.approx(_keep_in_reference(keep_in_run).min(), abs=1e-9)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    cells = summary_cells(page)
+    assert cells["min_margin_deg_per_pair/keep_in/sun_sensor"] == [(shown, format_value(shown))]
+    assert "keep-in cones: axis (body), direction (inertial), largest angle" in page
+    assert "sun_sensor: [0, 0.7071, 0.7071]" in page
+    assert 'class="num bad" data-key="min_margin_deg_per_pair/keep_in/sun_sensor"' in page

@@ -1,0 +1,47 @@
+"""The SROS2 policy (:mod:`attitude_tools.sros2_policy`) grants each node exactly its
+table's topics, and the copy in docs/ is current."""
+
+from __future__ import annotations
+
+import xml.etree.ElementTree as ET
+
+from support import ROOT
+
+from attitude_core.contract import node_graph
+from attitude_core.contract import topics as t
+from attitude_tools.sros2_policy import policy_xml
+
+
+def _grants(xml: str) -> dict[str, dict[str, set[str]]]:
+    root = ET.fromstring(xml)
+    out = {}
+    for profile in root.iter("profile"):
+        out[profile.get("node")] = {
+            access: {
+                topic.text
+                for topics in profile.findall("topics")
+                if topics.get(access) == "ALLOW"
+                for topic in topics
+            }
+            for access in ("publish", "subscribe")
+        }
+    return out
+
+
+def test_every_node_gets_its_table_topics_and_no_other_contract_topic():
+    grants = _grants(policy_xml())
+    assert set(grants) == {n.node_name for n in node_graph.NODES}
+    contract = {topic.name for topic in t.TOPICS}
+    for spec in node_graph.NODES:
+        got = grants[spec.node_name]
+        assert got["publish"] & contract == set(spec.publishes) | {t.DIAGNOSTICS}
+        assert got["subscribe"] & contract == set(spec.subscribes) | {t.DIAGNOSTICS}
+    # Who may command the body: the controller alone publishes the torque, and only the
+    # simulator (the plant) publishes the state.
+    assert [n for n, g in grants.items() if t.TORQUE in g["publish"]] == ["pd_controller"]
+    assert [n for n, g in grants.items() if t.ATTITUDE in g["publish"]] == ["rigid_body_sim"]
+
+
+def test_the_documented_policy_is_the_generated_one():
+    documented = (ROOT / "docs" / "sros2" / "attitude_run.policy.xml").read_text()
+    assert documented == policy_xml(), "regenerate: python -m attitude_tools.sros2_policy"
