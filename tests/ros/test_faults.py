@@ -310,4 +310,11 @@ def test_simulator_killed_still_leaves_a_readable_bag_and_summary(
     assert attitudes >= len(bag_run.run.t) >= 10
     assert summary["steps_recorded"] == len(bag_run.run.t)
     targets = {_stamp(m.msg) for m in read_bag(str(out / "bag"), [TARGET_MRP])}
-    assert set(bag_run.stamps_ns[:-1].tolist()) <= targets
+    # Real time does not wait for the planner's first answer: the states published
+    # while its end of the discovery was still settling go unanswered (zero torque
+    # applied). From the first answered state on, every step up to the kill keeps
+    # its target: the recording lost nothing when the simulator died.
+    stamps = bag_run.stamps_ns[:-1].tolist()
+    first = next(k for k, s in enumerate(stamps) if s in targets)
+    assert first < 10  # the planner answered within its first second
+    assert set(stamps[first:]) <= targets
