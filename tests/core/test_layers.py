@@ -29,6 +29,7 @@ SHELLS = [
     "attitude_planner/attitude_planner/planner_node.py",
     "attitude_controller/attitude_controller/controller_node.py",
     "spacecraft_sim/spacecraft_sim/sim_node.py",
+    "attitude_estimation/attitude_estimation/estimator_node.py",
     "attitude_bringup/attitude_bringup/recorder_node.py",
     "attitude_conformance/attitude_conformance/check_node.py",
 ]

@@ -4,9 +4,11 @@ The launch file is executed against recording stand-ins of the few ``launch`` an
 ``launch_ros`` classes it uses (each records its arguments), so what is checked is the
 launch description it really builds: the launch arguments, the nodes of
 ``attitude_core.contract.node_graph.NODES`` with their packages, executables, names and
-parameters, the simulator's expected listeners, and the shutdown on the simulator's
-exit. Each executable must be a console script of its package's setup.py (so
-``ros2 launch`` can find it), and the file must be installed by attitude_bringup.
+parameters (``SENSING_NODES`` for a scenario with sensors: the graph is chosen when the
+launch runs, by an ``OpaqueFunction`` called here with a stand-in context), the
+simulator's expected listeners, and the shutdown on the simulator's exit. Each
+executable must be a console script of its package's setup.py (so ``ros2 launch`` can
+find it), and the file must be installed by attitude_bringup.
 """
 
 import ast
@@ -25,6 +27,8 @@ ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / 'src'
 BRINGUP = SRC / 'attitude_bringup'
 LAUNCH = BRINGUP / 'launch' / 'scenario.launch.py'
+CASE1 = ROOT / 'scenarios' / 'case1.yaml'
+SENSING = ROOT / 'scenarios' / 'case1_wheels_sensors.yaml'
 
 
 class Recorded:
@@ -40,7 +44,12 @@ def _stand_in(name):
 
 STAND_INS = {
     'launch': ['LaunchDescription'],
-    'launch.actions': ['DeclareLaunchArgument', 'RegisterEventHandler', 'Shutdown'],
+    'launch.actions': [
+        'DeclareLaunchArgument',
+        'OpaqueFunction',
+        'RegisterEventHandler',
+        'Shutdown',
+    ],
     'launch.event_handlers': ['OnProcessExit'],
     'launch.substitutions': ['LaunchConfiguration'],
     'launch_ros.actions': ['Node'],
@@ -75,9 +84,29 @@ def description():
     return ld
 
 
-def _entities(ld, kind):
-    (entities,) = ld.args
-    return [e for e in entities if type(e).__name__ == kind]
+class _Context:
+    """Stand-in of a LaunchContext: the launch arguments as given."""
+
+    def __init__(self, scenario):
+        self.launch_configurations = {'scenario': str(scenario)}
+
+
+def _entities(ld, kind, scenario=CASE1):
+    """The entities of ``kind``, with the opaque functions run for ``scenario``."""
+    key = (id(ld), str(scenario))
+    if key not in _EVALUATED:  # once per description and scenario: the same objects
+        (entities,) = ld.args
+        flat = []
+        for e in entities:
+            if type(e).__name__ == 'OpaqueFunction':
+                flat.extend(e.kwargs['function'](_Context(scenario)))
+            else:
+                flat.append(e)
+        _EVALUATED[key] = flat
+    return [e for e in _EVALUATED[key] if type(e).__name__ == kind]
+
+
+_EVALUATED: dict = {}
 
 
 def _configuration(value):
@@ -129,7 +158,19 @@ def _console_scripts(pkg):
     return set()
 
 
-@pytest.mark.parametrize('spec', node_graph.NODES, ids=lambda s: s.executable)
+def test_a_scenario_with_sensors_starts_the_estimator(description):
+    started = [n.kwargs['executable'] for n in _entities(description, 'Node', SENSING)]
+    assert started == [s.executable for s in node_graph.SENSING_NODES]
+    nodes = {n.kwargs['executable']: n for n in _entities(description, 'Node', SENSING)}
+    files, _ = _parameters(nodes[node_graph.ESTIMATOR.executable])
+    assert files == ['scenario']
+    _, sim = _parameters(nodes[node_graph.SIMULATOR.executable])
+    # the estimator and the recorder listen to the simulator's measurements
+    assert sim['lockstep.expected_subscribers'] == 2
+    assert node_graph.state_listeners(node_graph.SENSING_NODES) == 2
+
+
+@pytest.mark.parametrize('spec', node_graph.SENSING_NODES, ids=lambda s: s.executable)
 def test_node_executable_is_a_console_script(spec):
     scripts = _console_scripts(spec.package)
     assert spec.executable in scripts, (

@@ -14,30 +14,37 @@ Launch arguments:
   spacecraft_sim).
 * ``bag_dir``: output directory of the bag written by ``bag_recorder`` (default ``bag``).
 
-Starts the nodes of :data:`attitude_core.contract.node_graph.NODES` (recorder, planner, controller,
-simulator), the same table ``attitude-run`` starts; the simulator waits for every state
-listener of that table (``node_graph.state_listeners()``: planner, controller, recorder).
-The whole launch shuts down when the simulator exits (end of the simulated time, or an
-error).
+Starts the nodes of :func:`attitude_core.contract.node_graph.graph` for the scenario
+(recorder, planner, controller, simulator; and the estimator first when the scenario
+declares ``sensors.*``), the same table ``attitude-run`` starts; the simulator waits for
+every state listener of that table (``node_graph.state_listeners``: planner, controller
+and recorder; estimator and recorder with sensors). The scenario file is read when the
+launch runs (an ``OpaqueFunction``), to choose the graph. The whole launch shuts down
+when the simulator exits (end of the simulated time, or an error).
 
 Machines without ROS 2's launch (pip wheels only) run the same nodes with ``attitude-run``.
 """
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, RegisterEventHandler, Shutdown
+from launch.actions import DeclareLaunchArgument, OpaqueFunction, RegisterEventHandler, Shutdown
 from launch.event_handlers import OnProcessExit
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 from launch_ros.parameter_descriptions import ParameterValue
 
+from attitude_core.config.scenario import load_scenario
 from attitude_core.contract import node_graph as graph
 from attitude_core.contract.time_mode import TimeMode
 
 
-def generate_launch_description():
+def _nodes(context):
+    """The scenario's node graph and the shutdown on the simulator's exit."""
     scenario = LaunchConfiguration('scenario')
     time_mode = LaunchConfiguration('time_mode')
     bag_dir = LaunchConfiguration('bag_dir')
+    run_graph = graph.graph(
+        load_scenario(context.launch_configurations['scenario']).sensors is not None
+    )
 
     own_parameters = {
         graph.RECORDER.role: {
@@ -47,11 +54,11 @@ def generate_launch_description():
         },
         graph.SIMULATOR.role: {
             'time_mode': ParameterValue(time_mode, value_type=str),
-            'lockstep.expected_subscribers': graph.state_listeners(),
+            'lockstep.expected_subscribers': graph.state_listeners(run_graph.nodes),
         },
     }
     nodes = {}
-    for spec in graph.NODES:
+    for spec in run_graph.nodes:
         files = [scenario] if spec.parameters.scenario is not None else []
         nodes[spec.role] = Node(
             package=spec.package,
@@ -60,7 +67,18 @@ def generate_launch_description():
             parameters=files + [own_parameters.get(spec.role, {})],
             output='screen',
         )
+    return [
+        *nodes.values(),
+        RegisterEventHandler(
+            OnProcessExit(
+                target_action=nodes[graph.SIMULATOR.role],
+                on_exit=[Shutdown(reason=f'{graph.SIMULATOR.executable} exited')],
+            )
+        ),
+    ]
 
+
+def generate_launch_description():
     return LaunchDescription(
         [
             DeclareLaunchArgument(
@@ -76,12 +94,6 @@ def generate_launch_description():
             DeclareLaunchArgument(
                 'bag_dir', default_value='bag', description='Output directory of the recorded bag'
             ),
-            *nodes.values(),
-            RegisterEventHandler(
-                OnProcessExit(
-                    target_action=nodes[graph.SIMULATOR.role],
-                    on_exit=[Shutdown(reason=f'{graph.SIMULATOR.executable} exited')],
-                )
-            ),
+            OpaqueFunction(function=_nodes),
         ]
     )

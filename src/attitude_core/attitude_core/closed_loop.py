@@ -7,6 +7,10 @@ from the body state at ``t_k`` (eq. 11), and the body is propagated to ``t_{k+1}
 ``u_k`` held (eqs. 3-4). With ``actuators.max_torque_nm`` the controller scales its
 command into the bound and the plant clips per axis (:mod:`attitude_core.gnc.actuators`).
 The nodes run the same functions, one per process.
+
+With declared sensors (``sensors.*``) the guidance and the controller are fed the MEKF's
+estimate of the body (:class:`attitude_core.gnc.sensing.OnboardEstimation`), never the
+body itself; the record keeps the true state and the estimate side by side.
 """
 
 from __future__ import annotations
@@ -21,7 +25,8 @@ from attitude_core.gnc.actuators import clip_to_bound
 from attitude_core.gnc.control import PdGains, commanded_torque
 from attitude_core.gnc.dynamics import RigidBody
 from attitude_core.gnc.guidance import Guidance
-from attitude_core.record.trajectory import RunResult
+from attitude_core.gnc.sensing import OnboardEstimation
+from attitude_core.record.trajectory import Estimates, RunResult
 
 __all__ = ["run_closed_loop"]
 
@@ -44,17 +49,22 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     d_obs = np.empty(n + 1)
     status = np.empty(n + 1, dtype=np.int8)
     step_s = np.empty(n + 1)
+    onboard = None if scenario.sensors is None else OnboardEstimation(scenario.sensors, dt, n + 1)
     clock = time.perf_counter
     for k in range(n + 1):
-        c0 = clock()
         # The time the planner node derives from the state stamp (k dt in integer ns),
         # to the last bit: the guidance's thresholds then decide alike in both.
         t_k = k * dt_ns / NS_PER_S
-        target = guidance.update(t_k, body.sigma_bn, body.omega_b).target
+        sigma_m, omega_m = body.sigma_bn, body.omega_b  # the state the loop is fed
+        if onboard is not None:
+            est = onboard.sense(k, t_k, body.sigma_bn, body.omega_b)
+            if est is None:
+                raise RuntimeError(f"{scenario.name}: no star tracker fix at t = {t_k} s")
+            sigma_m, omega_m = est.sigma_bn, est.omega_b
+        c0 = clock()
+        target = guidance.update(t_k, sigma_m, omega_m).target
         step_s[k] = clock() - c0
-        u = commanded_torque(
-            gains, body.sigma_bn, body.omega_b, target.sigma_t, target.omega_t, limit
-        )
+        u = commanded_torque(gains, sigma_m, omega_m, target.sigma_t, target.omega_t, limit)
         u, _ = clip_to_bound(u, limit)  # the plant's own bound (a no-op after the scaling)
         sigma[k], omega[k], torque[k] = body.sigma_bn, body.omega_b, u
         sigma_t[k], omega_t[k] = target.sigma_t, target.omega_t
@@ -76,4 +86,9 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         time.perf_counter() - wall0,
         guidance.reason,
         guidance.route_rotation_deg,
+        None
+        if onboard is None
+        else Estimates(
+            onboard.sigma_bn, onboard.omega_b, onboard.attitude_3sigma_deg, onboard.nees
+        ),
     )

@@ -53,6 +53,34 @@ def mrp_from_quaternion(q: Any) -> npt.NDArray[np.float64]:
     return mrp_from_quat(quaternion_xyzw(q))
 
 
+def init_imu(msg: Any, gyro_noise_rad_s: float) -> None:
+    """A gyro-only ``sensor_msgs/Imu`` (conventions in :mod:`attitude_core.contract.topics`):
+    the white-noise variance on the rate's diagonal, orientation and acceleration marked
+    not provided (-1)."""
+    var = float(gyro_noise_rad_s) ** 2
+    msg.angular_velocity_covariance = [var, 0.0, 0.0, 0.0, var, 0.0, 0.0, 0.0, var]
+    msg.orientation_covariance = [-1.0] + [0.0] * 8
+    msg.linear_acceleration_covariance = [-1.0] + [0.0] * 8
+
+
+def init_star_tracker(msg: Any, noise_rad: Sequence[float]) -> None:
+    """A star tracker ``PoseWithCovarianceStamped``: the rotation block (rows and columns
+    3-5, about body x, y, z) holds the noise variances; the position is unused."""
+    cov = [0.0] * 36
+    for i in range(3):
+        cov[(3 + i) * 6 + 3 + i] = float(noise_rad[i]) ** 2
+    msg.pose.covariance = cov
+
+
+def star_tracker_noise_rad(msg: Any) -> tuple[float, float, float] | None:
+    """The 1-sigma noise a star tracker message declares (None: none declared)."""
+    cov = msg.pose.covariance
+    var = [float(cov[(3 + i) * 6 + 3 + i]) for i in range(3)]
+    if not all(math.isfinite(v) and v > 0.0 for v in var):
+        return None
+    return (math.sqrt(var[0]), math.sqrt(var[1]), math.sqrt(var[2]))
+
+
 def reject(node: Any, topic: str, reason: str, count: int | None = None) -> None:
     """Log, throttled, a refused incoming message; count it in ``node.rejected`` unless
     the caller's core already counted it (``count``: the total so far)."""

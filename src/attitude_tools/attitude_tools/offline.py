@@ -23,7 +23,7 @@ from attitude_core.record.trajectory import RunResult
 from attitude_tools.output.rundir import check_replaceable, publish, stage
 from attitude_tools.output.strict_json import dump_strict, dumps_strict
 
-__all__ = ["TIMESERIES_COLUMNS", "write_run", "main"]
+__all__ = ["TIMESERIES_COLUMNS", "ESTIMATE_COLUMNS", "write_run", "main"]
 
 
 TIMESERIES_COLUMNS = (
@@ -35,6 +35,14 @@ TIMESERIES_COLUMNS = (
     + [f"omega_t_{i}_rad_s" for i in (1, 2, 3)]
     + ["min_margin_deg", diagnostics.OBSTACLE_DISTANCE_MRP, "planner_status"]
 )
+"""The columns of every run; ``sigma_bn_*`` and ``omega_b_*`` are the true state."""
+
+ESTIMATE_COLUMNS = (
+    [f"sigma_bn_est_{i}" for i in (1, 2, 3)]
+    + [f"omega_b_est_{i}_rad_s" for i in (1, 2, 3)]
+    + ["attitude_3sigma_deg", "nees"]
+)
+"""Appended with declared sensors: the estimate the loop was fed, its 3-sigma and NEES."""
 
 
 def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
@@ -47,6 +55,12 @@ def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
     tmp = stage(out, ".tmp-run-")
     try:
         margins = run.scenario.sky.min_margin_deg(run.t, run.sigma_bn)  # at each instant
+        columns = list(TIMESERIES_COLUMNS)
+        est = run.estimate
+        extra = []
+        if est is not None:
+            columns += ESTIMATE_COLUMNS
+            extra = [est.sigma_bn, est.omega_b, est.attitude_3sigma_deg, est.nees]
         table = np.column_stack(
             [
                 run.t,
@@ -58,13 +72,14 @@ def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
                 margins,
                 run.obstacle_distance_mrp,
                 run.planner_status,
+                *extra,
             ]
         )
         np.savetxt(
             tmp / "timeseries.csv",
             table,
             delimiter=",",
-            header=",".join(TIMESERIES_COLUMNS),
+            header=",".join(columns),
             comments="",
             fmt="%.10g",
         )

@@ -7,6 +7,12 @@ it takes ``/controller/torque`` and publishes the torque applied over ``[t_k, t_
 on ``/spacecraft/applied_torque``, stamped ``k``. It waits for the graph of
 :func:`attitude_core.contract.node_graph.readiness` first. Exit 0 at the scenario's end, 1 when
 the graph never connects.
+
+With declared sensors (``sensors.*``) the state goes to ``/spacecraft/truth/*`` (for the
+record) and the loop gets the measurements instead: the gyro on ``/spacecraft/imu`` each
+step and the star tracker on ``/spacecraft/star_tracker`` at its rate
+(:mod:`spacecraft_sim.sensor_out`, conventions in :mod:`attitude_core.contract.topics`),
+one draw per step, re-sent unchanged.
 """
 
 from __future__ import annotations
@@ -28,6 +34,8 @@ from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
 
+from .sensor_out import SensorOut
+
 LOOP_PERIOD_S = 0.02  # start-up polling and the lockstep torque-deadline check, s
 
 
@@ -36,14 +44,17 @@ class RigidBodySimNode(StackNode):
         super().__init__(node_graph.SIMULATOR, **kwargs)
         own, sc = declare_scenario_node(self, node_graph.SIMULATOR.parameters)
         self.scenario, self.time_mode = sc, own.time_mode
-        self.ready = node_graph.readiness(own.lockstep.expected_subscribers)
+        sensing = sc.sensors is not None
+        self.ready = node_graph.readiness(own.lockstep.expected_subscribers, sensing)
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
-        self.pub_clock, self.pub_att = publisher(self, c.CLOCK), publisher(self, c.ATTITUDE)
-        self.pub_rate = publisher(self, c.ANGULAR_VELOCITY)
+        state_att, state_rate = c.TRUTH_TOPICS if sensing else c.STATE_TOPICS
+        self.pub_clock, self.pub_att = publisher(self, c.CLOCK), publisher(self, state_att)
+        self.pub_rate = publisher(self, state_rate)
+        self.msg_att, self.msg_rate = message(state_att), message(state_rate)
+        self.sensors = None if sc.sensors is None else SensorOut(self, sc, sc.sensors)
         self.pub_applied = publisher(self, c.APPLIED_TORQUE)
         self.sub_torque = subscription(self, c.TORQUE, self.on_torque)
-        self.msg_clock, self.msg_att = ClockMsg(), message(c.ATTITUDE)
-        self.msg_rate, self.msg_applied = message(c.ANGULAR_VELOCITY), message(c.APPLIED_TORQUE)
+        self.msg_clock, self.msg_applied = ClockMsg(), message(c.APPLIED_TORQUE)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.guard = RunGuard(
             self,
@@ -65,6 +76,7 @@ class RigidBodySimNode(StackNode):
 
     def graph_ready(self) -> bool:
         own_pubs = {c.ATTITUDE: self.pub_att, c.ANGULAR_VELOCITY: self.pub_rate}
+        own_pubs = self.sensors.publishers if self.sensors else own_pubs
         for name, n in self.ready.min_subscribers.items():
             pub = own_pubs.get(name)
             count = pub.get_subscription_count() if pub else self.count_subscribers(name)
@@ -125,11 +137,15 @@ class RigidBodySimNode(StackNode):
             cv.set_stamp(self.msg_rate.header.stamp, d.state.stamp_ns)
             cv.set_quaternion_from_mrp(self.msg_att.quaternion, d.state.sigma_bn)
             cv.set_vector3(self.msg_rate.vector, d.state.omega_b)
+            if self.sensors is not None:
+                self.sensors.measure(d.state.k, d.state.stamp_ns, d.state.sigma_bn, d.state.omega_b)
         if d.state is not None or d.resend:
             if self.stepper.lockstep:  # /clock exists in lockstep only
                 self.pub_clock.publish(self.msg_clock)
             self.pub_att.publish(self.msg_att)
             self.pub_rate.publish(self.msg_rate)
+            if self.sensors is not None:
+                self.sensors.publish()
         if d.action == Action.FINISH:
             self.finish(0)
         elif d.action == Action.FAIL:

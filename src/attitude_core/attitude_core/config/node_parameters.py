@@ -37,6 +37,8 @@ __all__ = [
     "CONTROLLER",
     "SIMULATOR",
     "RECORDER",
+    "ESTIMATOR",
+    "EstimatorParams",
 ]
 
 
@@ -84,6 +86,11 @@ class SimulatorParams:
     realtime: RealtimeParams
     startup_timeout_s: float
     fault: SimulatorFault
+
+
+@dataclass(frozen=True)
+class EstimatorParams:
+    star_tracker_wait_s: float
 
 
 @dataclass(frozen=True)
@@ -160,6 +167,7 @@ PLANNER = NodeParameters(
         "planner.*",
         "actuators.*",
         "arrival.*",
+        "sensors.*",
     ),
 )
 
@@ -248,7 +256,23 @@ SIMULATOR = NodeParameters(
         "initial_mrp",
         "initial_rate_rad_s",
         "actuators.max_torque_nm",
+        "sensors.*",
     ),
+)
+
+ESTIMATOR = NodeParameters(
+    values=EstimatorParams,
+    own=(
+        Param(
+            "star_tracker_wait_s",
+            ParamKind.FLOAT,
+            "wall time to wait for a star tracker sample due at a gyro sample's stamp before "
+            "filtering the step without it (the sample was lost), s",
+            0.5,
+            Bounds(0.0, 60.0),
+        ),
+    ),
+    scenario=("scenario_name", "dt_s", "sensors.*"),
 )
 
 RECORDER = NodeParameters(

@@ -71,11 +71,15 @@ from attitude_core.config.scenario_schema import (
     OPTIONAL_GROUPS,
     ORBIT_PARAMETERS,
     SCENARIO_PARAMETERS,
+    SENSOR_PARAMETERS,
+    SENSOR_REQUIRED,
     group_names_param,
 )
 from attitude_core.gnc.constraints import EXACT_SAMPLES, ConeGeometry
 from attitude_core.gnc.ephemeris import Orbit, parse_epoch_utc
 from attitude_core.gnc.fepf import DirectionAxis, PlannerVariant, PlanningFrame
+from attitude_core.gnc.knowledge import PERFECT, Knowledge, knowledge_of
+from attitude_core.gnc.sensors import DEFAULT_BIAS_PRIOR_RAD_S, SensorSpec
 from attitude_core.gnc.sky import Motion, Sky
 from attitude_core.yamlio import load_strict
 
@@ -245,6 +249,32 @@ class Scenario:
     keep_in: tuple[KeepIn, ...] = ()  # keep-in cones (none by default)
     epoch_utc: str | None = None  # ISO 8601 UTC of t = 0
     orbit: Orbit | None = None  # two-body orbit at the epoch, GCRS
+    sensors: SensorSpec | None = None  # None: perfect knowledge (the true state is fed)
+
+    @functools.cached_property
+    def knowledge(self) -> Knowledge:
+        """How well the loop knows the state: the estimator's steady 3-sigma from the
+        declared sensors (:mod:`attitude_core.gnc.knowledge`; perfect without them)."""
+        return PERFECT if self.sensors is None else knowledge_of(self.sensors, self.dt_s)
+
+    @property
+    def guidance_arrival(self) -> ArrivalConfig:
+        """The tolerances the guidance judges the *estimate* against: the declared ones,
+        at least the knowledge 3-sigma (noise alone must not keep an arrival out)."""
+        k = self.knowledge
+        return ArrivalConfig(
+            max(self.arrival.attitude_tol_deg, k.attitude_3sigma_deg),
+            max(self.arrival.rate_tol_rad_s, k.rate_3sigma_rad_s),
+        )
+
+    @property
+    def true_arrival(self) -> ArrivalConfig:
+        """The tolerances the *true* body is judged against: the guidance's plus the
+        knowledge 3-sigma (the declared ones with perfect knowledge)."""
+        k, g = self.knowledge, self.guidance_arrival
+        return ArrivalConfig(
+            g.attitude_tol_deg + k.attitude_3sigma_deg, g.rate_tol_rad_s + k.rate_3sigma_rad_s
+        )
 
     @functools.cached_property
     def sky(self) -> Sky:
@@ -517,6 +547,7 @@ def parse_scenario(
         ),
         epoch_utc=values["epoch_utc"],
         orbit=_orbit(values, source),
+        sensors=_sensors(values, source),
     )
     _check_sky(scenario, source)
 
@@ -656,6 +687,35 @@ def _orbit(values: dict[str, Any], source: str) -> Orbit | None:
     if problem is not None:
         raise ScenarioError(source, "orbit", problem)
     return orbit
+
+
+def _sensors(values: dict[str, Any], source: str) -> SensorSpec | None:
+    """The ``sensors.*`` keys: none (perfect knowledge), or at least the required ones."""
+    keys = [p.key for p in SENSOR_PARAMETERS]
+    if all(values[k] is None for k in keys):
+        return None
+    for key in SENSOR_REQUIRED:
+        if values[key] is None:
+            raise ScenarioError(source, key, f"missing: sensors need {', '.join(SENSOR_REQUIRED)}")
+    arcsec = math.radians(1.0 / 3600.0)
+    bias = values["sensors.gyro.bias_rad_s"]
+    walk = values["sensors.gyro.bias_walk_rad_s2"]
+    prior = values["sensors.gyro.bias_prior_rad_s"]
+    spec = SensorSpec(
+        seed=int(values["sensors.seed"]),
+        star_tracker_noise_rad=tuple(  # type: ignore[arg-type]
+            float(x) * arcsec for x in values["sensors.star_tracker.noise_arcsec"]
+        ),
+        star_tracker_rate_hz=float(values["sensors.star_tracker.rate_hz"]),
+        gyro_noise_rad_s=float(values["sensors.gyro.noise_rad_s"]),
+        gyro_bias_rad_s=(0.0, 0.0, 0.0) if bias is None else tuple(float(x) for x in bias),  # type: ignore[arg-type]
+        gyro_bias_walk_rad_s2=0.0 if walk is None else float(walk),
+        gyro_bias_prior_rad_s=DEFAULT_BIAS_PRIOR_RAD_S if prior is None else float(prior),
+    )
+    problem = spec.problem()
+    if problem is not None:
+        raise ScenarioError(source, "sensors", problem)
+    return spec
 
 
 def _check_sky(scenario: Scenario, source: str) -> None:

@@ -29,6 +29,8 @@ __all__ = [
     "OBJECT_PARAMETERS",
     "KEEP_IN_PARAMETERS",
     "ORBIT_PARAMETERS",
+    "SENSOR_PARAMETERS",
+    "SENSOR_REQUIRED",
     "EXCLUSION_PARAMETER",
     "GROUPS",
     "OPTIONAL_GROUPS",
@@ -95,6 +97,68 @@ ORBIT_PARAMETERS = (
     Param("orbit.true_anomaly_deg", ParamKind.FLOAT, "true anomaly at the epoch, deg", None),
 )
 """The ``orbit.*`` keys: all six or none."""
+
+SENSOR_PARAMETERS = (
+    Param(
+        "sensors.seed",
+        ParamKind.INT,
+        "seed of the sensor noise: a run is reproducible (absent with every sensors.* "
+        "key: perfect knowledge, the simulator's state fed to the loop)",
+        None,
+        ge(0),
+    ),
+    Param(
+        "sensors.star_tracker.noise_arcsec",
+        ParamKind.VEC3,
+        "star tracker error, 1-sigma about body x, y, z (a rotation in body axes), arcsec",
+        None,
+        check=_positive_vector,
+    ),
+    Param(
+        "sensors.star_tracker.rate_hz",
+        ParamKind.FLOAT,
+        "star tracker sample rate, Hz (a sample at t = 0, then one per period)",
+        None,
+        gt(0.0),
+    ),
+    Param(
+        "sensors.gyro.noise_rad_s",
+        ParamKind.FLOAT,
+        "gyro white noise, 1-sigma per sample (one per dt_s) and axis, rad/s",
+        None,
+        ge(0.0),
+    ),
+    Param(
+        "sensors.gyro.bias_rad_s",
+        ParamKind.VEC3,
+        "gyro bias at t = 0, body axes, rad/s (default zero; the estimator does not know it)",
+        None,
+    ),
+    Param(
+        "sensors.gyro.bias_walk_rad_s2",
+        ParamKind.FLOAT,
+        "gyro bias random walk sigma_u, rad/s per sqrt(s) (rad s^-3/2): the bias moves by "
+        "sigma_u sqrt(dt) per sample (default 0)",
+        None,
+        ge(0.0),
+    ),
+    Param(
+        "sensors.gyro.bias_prior_rad_s",
+        ParamKind.FLOAT,
+        "the estimator's 1-sigma on the initial bias, per axis, rad/s (default 1e-3)",
+        None,
+        gt(0.0),
+    ),
+)
+"""The ``sensors.*`` keys: absent, perfect knowledge; else ``seed``, the star tracker's
+noise and rate and the gyro's noise are required (:func:`attitude_core.config.scenario`)."""
+
+SENSOR_REQUIRED = (
+    "sensors.seed",
+    "sensors.star_tracker.noise_arcsec",
+    "sensors.star_tracker.rate_hz",
+    "sensors.gyro.noise_rad_s",
+)
 
 SCENARIO_PARAMETERS = (
     Param("scenario_name", ParamKind.NAME, "name used in outputs ([A-Za-z][A-Za-z0-9_]*)"),
@@ -283,8 +347,9 @@ SCENARIO_PARAMETERS = (
         1.0e-3,
         gt(0.0),
     ),
+    *SENSOR_PARAMETERS,
 )
-"""Top-level, controller, planner and arrival keys, in validation order."""
+"""Top-level, controller, planner, arrival and sensor keys, in validation order."""
 
 INSTRUMENT_PARAMETERS = (
     Param("boresight_body", ParamKind.UNIT3, "instrument boresight s_i, body axes, unit vector"),

@@ -16,6 +16,9 @@ from attitude_core.contract.status import PlannerStatus
 
 __all__ = [
     "STATUS_NAME",
+    "ESTIMATOR_STATUS_NAME",
+    "ATTITUDE_3SIGMA_DEG",
+    "GYRO_BIAS_RAD_S",
     "HARDWARE_ID",
     "STATUS",
     "STEP_TIME_US",
@@ -41,6 +44,9 @@ __all__ = [
 
 # The planner node's name and package (node_graph.PLANNER; a test keeps them equal):
 STATUS_NAME = "fepf_planner"  # DiagnosticStatus.name
+ESTIMATOR_STATUS_NAME = "mekf_estimator"  # the estimator's per-step report
+ATTITUDE_3SIGMA_DEG = "attitude_3sigma_deg"  # its key: 3 sqrt(trace P_att), deg
+GYRO_BIAS_RAD_S = "gyro_bias_rad_s"  # its key: the bias estimate, "x y z", rad/s
 HARDWARE_ID = "attitude_planner"  # DiagnosticStatus.hardware_id
 
 STATUS = "status"  # a PlannerStatus

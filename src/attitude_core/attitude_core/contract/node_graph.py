@@ -3,7 +3,10 @@ and who waits for whom.
 
 ``attitude-run`` starts :data:`NODES` in this order and stops them in
 :data:`STOP_ORDER`; the launch file and the tests take the same table; the simulator's
-readiness gate is :func:`readiness`. Plain data, no ROS import.
+readiness gate is :func:`readiness`. With declared sensors (``sensors.*``) the run is
+:data:`SENSING_NODES`: the estimator joins the loop between the simulator's
+measurements and the state the planner and controller read (:func:`graph`). Plain
+data, no ROS import.
 """
 
 from __future__ import annotations
@@ -27,6 +30,12 @@ __all__ = [
     "state_listeners",
     "Readiness",
     "readiness",
+    "ESTIMATOR",
+    "SENSING_NODES",
+    "SENSING_LOOP",
+    "SENSING_STOP_ORDER",
+    "Graph",
+    "graph",
 ]
 
 
@@ -56,6 +65,7 @@ _MODULES = {
     "fepf_planner": "planner_node",
     "pd_controller": "controller_node",
     "rigid_body_sim": "sim_node",
+    "mekf_estimator": "estimator_node",
 }
 
 RECORDER = NodeSpec(
@@ -91,8 +101,25 @@ SIMULATOR = NodeSpec(
     "rigid_body_sim",
     "rigid_body_sim",
     subscribes=(t.TORQUE,),
-    publishes=(t.CLOCK, t.ATTITUDE, t.ANGULAR_VELOCITY, t.APPLIED_TORQUE),
+    # The state without sensors; the measurements and the truth with them.
+    publishes=(
+        t.CLOCK,
+        t.ATTITUDE,
+        t.ANGULAR_VELOCITY,
+        t.APPLIED_TORQUE,
+        *t.SENSOR_TOPICS,
+        *t.TRUTH_TOPICS,
+    ),
     parameters=params.SIMULATOR,
+)
+ESTIMATOR = NodeSpec(
+    "estimator",
+    "attitude_estimation",
+    "mekf_estimator",
+    "mekf_estimator",
+    subscribes=t.SENSOR_TOPICS,
+    publishes=(t.ATTITUDE, t.ANGULAR_VELOCITY, t.DIAGNOSTICS),
+    parameters=params.ESTIMATOR,
 )
 
 NODES = (RECORDER, PLANNER, CONTROLLER, SIMULATOR)
@@ -101,20 +128,50 @@ LOOP = (PLANNER, CONTROLLER, SIMULATOR)
 """The closed loop; a recorder or a test probe only observes it."""
 STOP_ORDER = ((SIMULATOR, PLANNER, CONTROLLER), (RECORDER,))
 """Shutdown in two waves: the loop, then the recorder (it drains its queues)."""
+SENSING_NODES = (RECORDER, ESTIMATOR, PLANNER, CONTROLLER, SIMULATOR)
+SENSING_LOOP = (ESTIMATOR, PLANNER, CONTROLLER, SIMULATOR)
+SENSING_STOP_ORDER = ((SIMULATOR, ESTIMATOR, PLANNER, CONTROLLER), (RECORDER,))
+
+
+@dataclass(frozen=True)
+class Graph:
+    """The node graph of one run: start order, the closed loop, stop waves."""
+
+    nodes: tuple[NodeSpec[Any], ...]
+    loop: tuple[NodeSpec[Any], ...]
+    stop_order: tuple[tuple[NodeSpec[Any], ...], ...]
+
+    @property
+    def sensing(self) -> bool:
+        return ESTIMATOR in self.nodes
+
+
+def graph(sensing: bool) -> Graph:
+    """The graph of a run with (``sensing``: the scenario declares ``sensors.*`` and our
+    estimator runs) or without an estimator."""
+    if sensing:
+        return Graph(SENSING_NODES, SENSING_LOOP, SENSING_STOP_ORDER)
+    return Graph(NODES, LOOP, STOP_ORDER)
 
 
 def node(role: str) -> NodeSpec[Any]:
     """The entry of ``role`` (KeyError if none)."""
-    for spec in NODES:
+    for spec in SENSING_NODES:
         if spec.role == role:
             return spec
     raise KeyError(role)
 
 
+def _plant_state(nodes: tuple[NodeSpec[Any], ...]) -> str:
+    """The first topic the simulator publishes for the loop: the state, or the gyro."""
+    return t.IMU if ESTIMATOR in nodes else t.ATTITUDE
+
+
 def state_listeners(nodes: tuple[NodeSpec[Any], ...] = NODES) -> int:
-    """How many of ``nodes`` listen to the state the simulator publishes: the value of
-    ``lockstep.expected_subscribers`` for that graph."""
-    return sum(1 for n in nodes if n is not SIMULATOR and t.ATTITUDE in n.subscribes)
+    """How many of ``nodes`` listen to the state the simulator publishes (the gyro with
+    sensors): the value of ``lockstep.expected_subscribers`` for that graph."""
+    state = _plant_state(nodes)
+    return sum(1 for n in nodes if n is not SIMULATOR and state in n.subscribes)
 
 
 @dataclass(frozen=True)
@@ -125,27 +182,27 @@ class Readiness:
     min_publishers: dict[str, int]
 
 
-def readiness(expected_subscribers: int) -> Readiness:
-    """What the simulator waits for when ``expected_subscribers`` nodes listen to its state.
+def readiness(expected_subscribers: int, sensing: bool = False) -> Readiness:
+    """What the simulator waits for when ``expected_subscribers`` nodes listen to its state
+    (the gyro with ``sensing``).
 
-    Every state listener is taken to observe each topic the loop exchanges (state,
-    target, torque) except where the table says otherwise: the planner listens to the
-    state only. A topic then needs the state listeners less the loop nodes that do
-    not subscribe it, plus the simulator's own subscription; each topic that a loop
-    peer publishes for another needs that publisher.
+    The listeners beyond the loop's own are observers (a recorder, a probe), each taken
+    to observe every topic the loop exchanges. A topic then needs the loop nodes that
+    subscribe it (the simulator's own subscription included) plus the observers; each
+    topic that a loop peer publishes for another needs that publisher.
     """
-    listeners = [n for n in LOOP if n is not SIMULATOR and t.ATTITUDE in n.subscribes]
-    exchanged = sorted({name for n in LOOP for name in n.subscribes})
-    subs = {}
-    for name in exchanged:
-        missing = sum(name not in n.subscribes for n in listeners)
-        own = int(name in SIMULATOR.subscribes)
-        subs[name] = max(expected_subscribers - missing + own, 0)
+    loop = graph(sensing).loop
+    state = _plant_state(loop)
+    observers = expected_subscribers - sum(
+        1 for n in loop if n is not SIMULATOR and state in n.subscribes
+    )
+    exchanged = sorted({name for n in loop for name in n.subscribes})
+    subs = {name: max(sum(name in n.subscribes for n in loop) + observers, 0) for name in exchanged}
     pubs = {
         name: 1
-        for n in LOOP
+        for n in loop
         if n is not SIMULATOR
         for name in n.publishes
-        if any(name in m.subscribes for m in LOOP)
+        if any(name in m.subscribes for m in loop)
     }
     return Readiness(subs, dict(sorted(pubs.items())))

@@ -7,8 +7,14 @@ the QoS), the recorder and the bag readers all take their names from here.
 topic                               type                             publisher
 ==================================  ===============================  ==========================
 ``/clock``                          rosgraph_msgs/msg/Clock          simulator
-``/spacecraft/attitude``            geometry_msgs/msg/QuaternionStamped  simulator (or HIL bridge)
-``/spacecraft/angular_velocity``    geometry_msgs/msg/Vector3Stamped simulator (or HIL bridge)
+``/spacecraft/attitude``            geometry_msgs/msg/QuaternionStamped  simulator (or HIL bridge);
+                                                                     the estimator with sensors
+``/spacecraft/angular_velocity``    geometry_msgs/msg/Vector3Stamped simulator (or HIL bridge);
+                                                                     the estimator with sensors
+``/spacecraft/imu``                 sensor_msgs/msg/Imu              simulator with sensors (or HIL)
+``/spacecraft/star_tracker``        geometry_msgs/msg/PoseWithCovarianceStamped  the same
+``/spacecraft/truth/attitude``      geometry_msgs/msg/QuaternionStamped  simulator with sensors
+``/spacecraft/truth/angular_velocity``  geometry_msgs/msg/Vector3Stamped  simulator with sensors
 ``/planner/target_mrp``             geometry_msgs/msg/Vector3Stamped planner
 ``/planner/target_rate``            geometry_msgs/msg/Vector3Stamped planner
 ``/planner/status``                 std_msgs/msg/String              planner (latched)
@@ -19,6 +25,23 @@ topic                               type                             publisher
 ==================================  ===============================  ==========================
 
 Every stamped message of one step carries the stamp of the state it answers.
+
+With declared sensors (``sensors.*``) the simulator publishes no state the loop reads:
+it publishes the raw measurements and, for the record only, the true state on
+``/spacecraft/truth/*``; the estimator (``attitude_estimation``) publishes its estimate
+on ``/spacecraft/attitude`` and ``/spacecraft/angular_velocity`` with the stamp of the
+measurements it filtered. Message conventions of the sensors:
+
+* ``/spacecraft/imu``, ``sensor_msgs/Imu``, frame ``body``, every step: the gyro in
+  ``angular_velocity`` (rad/s, body axes, bias and noise included) with its white-noise
+  variance on the diagonal of ``angular_velocity_covariance``; no orientation and no
+  acceleration (``orientation_covariance[0]`` and ``linear_acceleration_covariance[0]``
+  are -1, the message's own "not provided" convention).
+* ``/spacecraft/star_tracker``, ``geometry_msgs/PoseWithCovarianceStamped``, frame
+  ``inertial``, at the tracker's rate: ``pose.orientation`` the measured attitude (the
+  body in the inertial frame, as ``/spacecraft/attitude``); the rotation block of
+  ``covariance`` (rows and columns 3-5, rad^2, about body x, y, z) the tracker's noise;
+  the position is unused (zero, with zero covariance).
 """
 
 from __future__ import annotations
@@ -35,6 +58,10 @@ KEEP_OUT_MARGIN = "/planner/keep_out_margin_deg"
 DIAGNOSTICS = "/diagnostics"
 TORQUE = "/controller/torque"
 APPLIED_TORQUE = "/spacecraft/applied_torque"  # what the simulator applied over the step
+IMU = "/spacecraft/imu"  # the gyro (with sensors)
+STAR_TRACKER = "/spacecraft/star_tracker"  # the star tracker (with sensors)
+TRUTH_ATTITUDE = "/spacecraft/truth/attitude"  # the true state (with sensors), record only
+TRUTH_ANGULAR_VELOCITY = "/spacecraft/truth/angular_velocity"
 
 INERTIAL_FRAME = "inertial"  # N
 BODY_FRAME = "body"  # B
@@ -44,6 +71,8 @@ TARGET_FRAME = "target"  # R: the planner's target attitude
 HISTORY_DEPTH = 200
 
 STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)  # what a plant (simulator or bridge) publishes
+SENSOR_TOPICS = (IMU, STAR_TRACKER)  # ... or, with sensors, what it measures
+TRUTH_TOPICS = (TRUTH_ATTITUDE, TRUTH_ANGULAR_VELOCITY)
 
 
 NS_PER_S = 1_000_000_000
@@ -81,6 +110,10 @@ TOPICS = (
     Topic(DIAGNOSTICS, "diagnostic_msgs/msg/DiagnosticArray", True),
     Topic(TORQUE, "geometry_msgs/msg/WrenchStamped", True, frame=BODY_FRAME),
     Topic(APPLIED_TORQUE, "geometry_msgs/msg/WrenchStamped", True, frame=BODY_FRAME),
+    Topic(IMU, "sensor_msgs/msg/Imu", True, frame=BODY_FRAME),
+    Topic(STAR_TRACKER, "geometry_msgs/msg/PoseWithCovarianceStamped", True, frame=INERTIAL_FRAME),
+    Topic(TRUTH_ATTITUDE, "geometry_msgs/msg/QuaternionStamped", True, frame=INERTIAL_FRAME),
+    Topic(TRUTH_ANGULAR_VELOCITY, "geometry_msgs/msg/Vector3Stamped", True, frame=BODY_FRAME),
 )
 
 

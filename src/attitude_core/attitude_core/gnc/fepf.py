@@ -168,13 +168,16 @@ def buffer_deg(scenario: Scenario, sigma_0: Vec3Like) -> float:
     """The planner's safety buffer, deg: ``planner.safety_margin_deg``, reduced to half
     of the start's (``sigma_0``) or the goal's margin when either lies closer to a cone
     (on a moving sky, the start's at ``t = 0`` only: the goal's clearance is watched over
-    time, :mod:`attitude_core.gnc.goal_watch`)."""
+    time, :mod:`attitude_core.gnc.goal_watch`). With declared sensors the knowledge
+    3-sigma (:attr:`Scenario.knowledge`) is added to ``safety_margin_deg``: the true
+    boresight may be that far from the estimated one."""
     exact = scenario.cone_geometry()
     ends = [np.asarray(sigma_0, dtype=float)]
     if scenario.sky.static:
         ends.append(scenario.desired_mrp)
     end_margin = min(float(exact.min_margin_deg(end)) for end in ends)
-    return min(scenario.planner.safety_margin_deg, 0.5 * max(end_margin, 0.0))
+    wanted = scenario.planner.safety_margin_deg + scenario.knowledge.attitude_3sigma_deg
+    return min(wanted, 0.5 * max(end_margin, 0.0))
 
 
 def load_planner_fis(

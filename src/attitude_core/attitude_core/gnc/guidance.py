@@ -80,6 +80,7 @@ from attitude_core.gnc.fepf import FepfPlanner, PlannerOutput, scenario_fis
 from attitude_core.gnc.fepf import buffer_deg as planner_buffer_deg
 from attitude_core.gnc.fuzzy import MamdaniFis, lookup_table
 from attitude_core.gnc.goal_watch import Blockage
+from attitude_core.gnc.knowledge import PERFECT, Knowledge
 from attitude_core.gnc.moving_sky import (
     BLOCK_WINDOW_MAX_S,
     LEAVE_LEAD_S,
@@ -272,6 +273,7 @@ class Guidance:
         executor: Executor | None = None,
         initial_route: Route | None = None,
         sky_guide: SkyGuide | None = None,
+        knowledge: Knowledge = PERFECT,
     ) -> None:
         if planner.watchdog:
             raise ValueError("Guidance: give it a planner without its own stuck watchdog")
@@ -279,7 +281,15 @@ class Guidance:
         self.limits = limits
         self.attitude_tol_deg = attitude_tol_deg
         self.rate_tol_rad_s = rate_tol_rad_s
-        self.hold_deg = max(0.5 * planner.geometry.inflation_deg, _MIN_HOLD_DEG)
+        self.knowledge = knowledge
+        # The buffer holds the knowledge 3-sigma on top of the declared margin: the hold
+        # point keeps half of the rest (step 4 of the module docstring).
+        self.hold_deg = max(
+            0.5 * (planner.geometry.inflation_deg - knowledge.attitude_3sigma_deg), _MIN_HOLD_DEG
+        )
+        self._behind_since: float | None = None  # the governor has held since (state time)
+        self._inside_since: float | None = None  # within the arrival tolerances since
+        self._outside_since: float | None = None  # arrived, beyond twice them since
         self.derating = 1.0  # share of the declared acceleration the plant has shown
         self._derated_at = -math.inf
         self.goal = np.asarray(planner.goal, dtype=float)
@@ -353,13 +363,14 @@ class Guidance:
             GuidanceLimits.from_actuators(
                 scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
             ),
-            scenario.arrival.attitude_tol_deg,
-            scenario.arrival.rate_tol_rad_s,
+            scenario.guidance_arrival.attitude_tol_deg,
+            scenario.guidance_arrival.rate_tol_rad_s,
             routes,
             scenario.planner.global_route,
             executor,
             initial_route,
             sky_guide,
+            scenario.knowledge,
         )
 
     @staticmethod
@@ -511,10 +522,14 @@ class Guidance:
         e_track = math.degrees(angle_between_single(sigma_bn, out.sigma_t))
         e_goal = math.degrees(angle_between_single(sigma_bn, self.goal))
         factor = 1.0
+        settling = float(t_s) < self.knowledge.settle_s  # the estimate still converging
         if planner.status == PlannerStatus.TRACKING:
             omega_t = self._time_scaled(out, dt if dt > 0.0 else nominal)
             factor = min(max(2.0 - e_track / self.hold_deg, 0.0), 1.0)
-            self._derate(factor, float(t_s))
+            if settling:
+                factor = 0.0  # the target holds the start
+            else:
+                self._derate(factor, float(t_s))
             omega_t = factor * omega_t
             sigma_t = (float(out.sigma_t[0]), float(out.sigma_t[1]), float(out.sigma_t[2]))
             rate = mrp_rate_single(
@@ -530,7 +545,9 @@ class Guidance:
             self.omega_prev = np.zeros(3)
             if planner.status == PlannerStatus.STUCK:
                 factor = 0.0  # held
-        self._judge(dt, e_goal, math.hypot(float(omega_b[0]), float(omega_b[1]), float(omega_b[2])))
+        rate_b = math.hypot(float(omega_b[0]), float(omega_b[1]), float(omega_b[2]))
+        if not settling:
+            self._judge(float(t_s), dt, e_goal, rate_b)
         return GuidanceOutput(
             replace(out, status=self.status), e_track, e_goal, factor, self.derating
         )
@@ -609,8 +626,14 @@ class Guidance:
     def _derate(self, factor: float, t_s: float) -> None:
         """A plant that falls behind a profile within its declared limits is weaker than
         declared: halve the profile's acceleration (at most once per settling time),
-        down to :data:`_MIN_DERATING`."""
+        down to :data:`_MIN_DERATING`. On estimates the governor must have held for the
+        knowledge's decision window first (noise alone must not derate)."""
         if factor >= 1.0 or self.limits.accel_rad_s2 is None:
+            self._behind_since = None
+            return
+        if self._behind_since is None:
+            self._behind_since = t_s
+        if t_s - self._behind_since < self.knowledge.decision_window_s:
             return
         if t_s - self._derated_at < _DERATE_EVERY_S:
             return
@@ -679,18 +702,32 @@ class Guidance:
             guide.next_route_s = t_s + ROUTE_REFRESH_S
             self._submit_route()
 
-    def _judge(self, dt: float, e_goal_deg: float, rate_b: float) -> None:
-        """Step 7 of the module docstring."""
+    def _judge(self, t_s: float, dt: float, e_goal_deg: float, rate_b: float) -> None:
+        """Step 7 of the module docstring. On estimates, an arrival (and its withdrawal)
+        is taken once its condition has held over the knowledge's decision window."""
         planner = self.planner
         if self.status in (PlannerStatus.STUCK, PlannerStatus.INFEASIBLE, PlannerStatus.BLOCKED):
             return
         on_goal = planner.status == PlannerStatus.ARRIVED
-        if on_goal and e_goal_deg <= self.attitude_tol_deg and rate_b <= self.rate_tol_rad_s:
-            self.status = PlannerStatus.ARRIVED
-        elif self.status == PlannerStatus.ARRIVED and (
-            e_goal_deg > 2.0 * self.attitude_tol_deg or rate_b > 2.0 * self.rate_tol_rad_s
-        ):
-            self.status = PlannerStatus.TRACKING
+        window = self.knowledge.decision_window_s
+        if self.status != PlannerStatus.ARRIVED:
+            inside = (
+                on_goal and e_goal_deg <= self.attitude_tol_deg and rate_b <= self.rate_tol_rad_s
+            )
+            if not inside:
+                self._inside_since = None
+            elif self._inside_since is None:
+                self._inside_since = t_s
+            if self._inside_since is not None and t_s - self._inside_since >= window:
+                self.status, self._outside_since = PlannerStatus.ARRIVED, None
+        else:
+            outside = e_goal_deg > 2.0 * self.attitude_tol_deg or rate_b > 2.0 * self.rate_tol_rad_s
+            if not outside:
+                self._outside_since = None
+            elif self._outside_since is None:
+                self._outside_since = t_s
+            if self._outside_since is not None and t_s - self._outside_since >= window:
+                self.status, self._inside_since = PlannerStatus.TRACKING, None
         if self.status == PlannerStatus.ARRIVED:
             self._since_progress = 0.0
             return

@@ -18,6 +18,7 @@ from attitude_core.contract.status import PlannerStatus
 from attitude_core.gnc.fepf import buffer_deg
 from attitude_core.gnc.goal_watch import goal_blockages, safe_until_s
 from attitude_core.gnc.guidance import GuidanceLimits, time_bound_s
+from attitude_core.gnc.mrp import principal_angle, relative
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg, path_length_mrp
 from attitude_core.record.trajectory import RunResult
 
@@ -60,6 +61,15 @@ class Summary:
     route_rotation_deg: float | None  # the planner's first global route
     planner_step_us_median: float
     planner_step_us_p99: float
+    # With declared sensors (None otherwise): the knowledge 3-sigma the guidance planned
+    # with, the estimate's error against the truth ({median, p99, max}) and the filter's
+    # consistency: the mean NEES (6 states; 6 when consistent) and the share of steps
+    # whose NEES lies in the chi-square(6) 95 % interval (0.95 when consistent).
+    knowledge_3sigma_deg: float | None
+    estimation_error_deg: dict[str, float] | None
+    rate_estimation_error_rad_s: dict[str, float] | None
+    filter_nees_mean: float | None
+    filter_nees_in_95pct: float | None
     sim_time_s: float
     dt_s: float
     wall_time_s: float
@@ -89,13 +99,9 @@ def summarize(run: RunResult) -> Summary:
     """
     sc = run.scenario
     min_margin, t_min = dense_min_margin_deg(sc.sky, run.t, run.sigma_bn, run.omega_b)
+    tol = sc.true_arrival  # the declared tolerances with perfect knowledge
     reached, t_reach, err_deg = arrival_time(
-        run.t,
-        run.sigma_bn,
-        run.omega_b,
-        sc.desired_mrp,
-        sc.arrival.attitude_tol_deg,
-        sc.arrival.rate_tol_rad_s,
+        run.t, run.sigma_bn, run.omega_b, sc.desired_mrp, tol.attitude_tol_deg, tol.rate_tol_rad_s
     )
     arrived = np.flatnonzero(run.planner_status == PlannerStatus.ARRIVED.code)
     stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
@@ -153,10 +159,49 @@ def summarize(run: RunResult) -> Summary:
         ),
         planner_step_us_median=float(np.median(step_s) * 1e6),
         planner_step_us_p99=float(np.percentile(step_s, 99) * 1e6),
+        **_estimation(run),
         sim_time_s=sc.sim_time_s,
         dt_s=sc.dt_s,
         wall_time_s=run.wall_time_s,
     )
+
+
+def _spread(x: np.ndarray) -> dict[str, float]:
+    return {
+        "median": float(np.median(x)),
+        "p99": float(np.percentile(x, 99)),
+        "max": float(np.max(x)),
+    }
+
+
+def _estimation(run: RunResult) -> dict[str, Any]:
+    """The estimate against the truth (the ``Summary`` fields after ``planner_step``)."""
+    est = run.estimate
+    if est is None:
+        return dict.fromkeys(
+            (
+                "knowledge_3sigma_deg",
+                "estimation_error_deg",
+                "rate_estimation_error_rad_s",
+                "filter_nees_mean",
+                "filter_nees_in_95pct",
+            )
+        )
+    ok = np.isfinite(est.sigma_bn).all(axis=1)
+    err = np.degrees(principal_angle(relative(est.sigma_bn[ok], run.sigma_bn[ok])))
+    rate_err = np.linalg.norm(est.omega_b[ok] - run.omega_b[ok], axis=1)
+    from scipy.stats import chi2  # only with sensors: a heavy import
+
+    nees = est.nees[np.isfinite(est.nees)]
+    lo, hi = chi2.ppf([0.025, 0.975], 6)
+    return {
+        "knowledge_3sigma_deg": run.scenario.knowledge.attitude_3sigma_deg,
+        "estimation_error_deg": _spread(err) if len(err) else None,
+        "rate_estimation_error_rad_s": _spread(rate_err) if len(err) else None,
+        # a bag holds no true bias: no NEES
+        "filter_nees_mean": float(np.mean(nees)) if len(nees) else None,
+        "filter_nees_in_95pct": float(np.mean((nees >= lo) & (nees <= hi))) if len(nees) else None,
+    }
 
 
 def constraint_margins_deg(sc: Scenario, t: np.ndarray, sigma_bn: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ import numpy as np
 
 from attitude_core.config.scenario import Scenario
 
-__all__ = ["RunResult"]
+__all__ = ["RunResult", "Estimates"]
 
 
 @dataclass
@@ -34,3 +34,16 @@ class RunResult:
     wall_time_s: float
     planner_reason: str = ""  # why the planner reported infeasible ("" otherwise)
     route_rotation_deg: float = float("nan")  # the planner's first global route, deg
+    # With declared sensors (None otherwise): sigma_bn and omega_b above are the TRUE
+    # state; the loop was fed these estimates (NaN rows before the filter's first fix).
+    estimate: Estimates | None = None
+
+
+@dataclass
+class Estimates:
+    """The estimator's output at each row of a :class:`RunResult` (``N + 1`` rows)."""
+
+    sigma_bn: np.ndarray  # estimated MRP sigma_BN
+    omega_b: np.ndarray  # bias-corrected rate, body axes, rad/s
+    attitude_3sigma_deg: np.ndarray  # the filter's 3 sqrt(trace P_att), deg
+    nees: np.ndarray  # normalised estimation error squared, 6 states (NaN: no truth)

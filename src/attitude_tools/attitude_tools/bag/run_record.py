@@ -14,6 +14,13 @@ step, or more than 5 s after the last, are off the run's timeline (a stray publi
 stamps, which the recorder keeps as evidence) and are not steps. Only the planner's
 own ``/diagnostics`` (status name ``fepf_planner``) give step data; the nodes' run
 identities there do not.
+
+A run with sensors is rebuilt from the truth: when the bag holds
+``/spacecraft/truth/*``, those are the steps' state (what safety and arrival are judged
+on), and ``/spacecraft/attitude`` and ``/spacecraft/angular_velocity`` (what the loop
+was fed) become :attr:`RunResult.estimate`, with the estimator's 3-sigma from its
+``/diagnostics`` (status ``mekf_estimator``); the NEES needs the true bias, which the
+bag does not hold (NaN).
 """
 
 from __future__ import annotations
@@ -26,7 +33,12 @@ import numpy as np
 import numpy.typing as npt
 
 from attitude_core.config.scenario import Scenario, loads_scenario
-from attitude_core.contract.diagnostics import STATUS_NAME, PlannerDiagnostics
+from attitude_core.contract.diagnostics import (
+    ATTITUDE_3SIGMA_DEG,
+    ESTIMATOR_STATUS_NAME,
+    STATUS_NAME,
+    PlannerDiagnostics,
+)
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import (
     ANGULAR_VELOCITY,
@@ -36,14 +48,26 @@ from attitude_core.contract.topics import (
     TARGET_MRP,
     TARGET_RATE,
     TORQUE,
+    TRUTH_ANGULAR_VELOCITY,
+    TRUTH_ATTITUDE,
     stamp_ns,
 )
 from attitude_core.gnc.mrp import mrp_from_quat
 from attitude_core.record.summary import summarize
-from attitude_core.record.trajectory import RunResult
+from attitude_core.record.trajectory import Estimates, RunResult
 from attitude_tools.bag.reader import read_attachment, read_bag
 
-_TOPICS = (ATTITUDE, ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE, TORQUE, APPLIED_TORQUE, DIAGNOSTICS)
+_TOPICS = (
+    ATTITUDE,
+    ANGULAR_VELOCITY,
+    TARGET_MRP,
+    TARGET_RATE,
+    TORQUE,
+    APPLIED_TORQUE,
+    DIAGNOSTICS,
+    TRUTH_ATTITUDE,
+    TRUTH_ANGULAR_VELOCITY,
+)
 
 
 @dataclass
@@ -63,6 +87,11 @@ def _xyz(v: Any) -> tuple[float, float, float]:
     return (v.x, v.y, v.z)
 
 
+def _quat(m: Any) -> tuple[float, float, float, float]:
+    q = m.quaternion
+    return (q.x, q.y, q.z, q.w)
+
+
 def scenario_from_bag(bag_dir: str) -> Scenario:
     """The scenario stored in the bag (attachment ``scenario.yaml``)."""
     text = read_attachment(bag_dir, "scenario.yaml").decode("utf-8")
@@ -76,14 +105,27 @@ def run_from_bag(
     if scenario is None:
         scenario = scenario_from_bag(bag_dir)
     by_topic: dict[str, dict[int, Any]] = {t: {} for t in _TOPICS}  # deserialized messages
-    wall: dict[int, int] = {}
+    three_sigma: dict[int, float] = {}  # the estimator's, by stamp
+    walls: dict[str, dict[int, int]] = {ATTITUDE: {}, TRUTH_ATTITUDE: {}}  # first receipt
     for m in read_bag(bag_dir, list(by_topic)):
         stamp = stamp_ns(m.msg.header.stamp)
-        if m.topic == DIAGNOSTICS and not any(st.name == STATUS_NAME for st in m.msg.status):
-            continue  # another node's diagnostics (a run identity): no step data
+        if m.topic == DIAGNOSTICS:
+            for st in m.msg.status:
+                if st.name == ESTIMATOR_STATUS_NAME:
+                    values = {kv.key: kv.value for kv in st.values}
+                    three_sigma[stamp] = float(values.get(ATTITUDE_3SIGMA_DEG, "nan"))
+            if not any(st.name == STATUS_NAME for st in m.msg.status):
+                continue  # another node's diagnostics (a run identity): no step data
         by_topic[m.topic][stamp] = m.msg
-        if m.topic == ATTITUDE:
-            wall.setdefault(stamp, m.publish_time_ns)
+        if m.topic in walls:
+            walls[m.topic].setdefault(stamp, m.publish_time_ns)
+    sensing = bool(by_topic[TRUTH_ATTITUDE])
+    att_topic, rate_topic = (
+        (TRUTH_ATTITUDE, TRUTH_ANGULAR_VELOCITY) if sensing else (ATTITUDE, ANGULAR_VELOCITY)
+    )
+    estimated = {ATTITUDE: by_topic[ATTITUDE], ANGULAR_VELOCITY: by_topic[ANGULAR_VELOCITY]}
+    by_topic[ATTITUDE], by_topic[ANGULAR_VELOCITY] = by_topic[att_topic], by_topic[rate_topic]
+    wall = walls[att_topic]
     states = sorted(by_topic[ATTITUDE])
     applied = by_topic[APPLIED_TORQUE]
     source = applied if applied else by_topic[TORQUE]
@@ -145,6 +187,28 @@ def run_from_bag(
         planner_reason=reason,
         route_rotation_deg=route_deg,
     )
+    if sensing:
+        est_quat = np.array(
+            [
+                _quat(estimated[ATTITUDE][s]) if s in estimated[ATTITUDE] else (np.nan,) * 4
+                for s in states[:n]
+            ],
+            dtype=float,
+        )
+        run.estimate = Estimates(
+            sigma_bn=mrp_from_quat(est_quat),
+            omega_b=np.array(
+                [
+                    _xyz(estimated[ANGULAR_VELOCITY][s].vector)
+                    if s in estimated[ANGULAR_VELOCITY]
+                    else nan3
+                    for s in states[:n]
+                ],
+                dtype=float,
+            ),
+            attitude_3sigma_deg=np.array([three_sigma.get(s, np.nan) for s in states[:n]]),
+            nees=np.full(n, np.nan),
+        )
     return BagRun(
         run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64), len(states) - n
     )

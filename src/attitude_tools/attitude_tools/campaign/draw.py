@@ -31,7 +31,10 @@ gives it:
    direction, both uniform on the unit sphere, and a largest angle uniform in
    ``max_angle_deg``);
 6. the sky (``sky``): the epoch (a whole second, uniform between the range's ends), the
-   orbit's RAAN, then its true anomaly (uniform, deg).
+   orbit's RAAN, then its true anomaly (uniform, deg);
+7. the sensors (``sensors``): the run's ``sensors.seed``, then per key given the star
+   tracker's noise factor, its rate, the gyro's noise and, per axis, its bias magnitude
+   and sign.
 
 A value range whose ends are equal gives its end and draws nothing (a count range is
 always drawn). An optional dispersion that the SPEC does not give draws nothing, and new
@@ -171,7 +174,32 @@ def _candidate(
         flat["orbit.true_anomaly_deg"] = _uniform(
             rng, spec.sky_true_anomaly_deg.lo, spec.sky_true_anomaly_deg.hi
         )
+    if spec.sensors:
+        _draw_sensors(spec, base, rng, flat)
     return flat
+
+
+def _draw_sensors(
+    spec: CampaignSpec, base: dict[str, Any], rng: np.random.Generator, flat: dict[str, Any]
+) -> None:
+    """Step 7 of the module docstring, into ``flat``."""
+    flat["sensors.seed"] = int(rng.integers(0, 2**31 - 1))
+    if spec.star_tracker_noise_scale is not None:
+        f = _uniform(rng, spec.star_tracker_noise_scale.lo, spec.star_tracker_noise_scale.hi)
+        noise = base["sensors.star_tracker.noise_arcsec"]
+        flat["sensors.star_tracker.noise_arcsec"] = [float(x) * f for x in noise]
+    if spec.star_tracker_rate_hz is not None:
+        rate = spec.star_tracker_rate_hz
+        flat["sensors.star_tracker.rate_hz"] = _uniform(rng, rate.lo, rate.hi)
+    if spec.gyro_noise_rad_s is not None:
+        noise_range = spec.gyro_noise_rad_s
+        flat["sensors.gyro.noise_rad_s"] = _uniform(rng, noise_range.lo, noise_range.hi)
+    if spec.gyro_bias_rad_s is not None:
+        bias = spec.gyro_bias_rad_s
+        flat["sensors.gyro.bias_rad_s"] = [
+            _uniform(rng, bias.lo, bias.hi) * (1.0 if rng.random() < 0.5 else -1.0)
+            for _ in range(3)
+        ]
 
 
 def _plain(flat: dict[str, Any]) -> bool:

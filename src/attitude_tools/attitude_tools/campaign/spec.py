@@ -22,6 +22,11 @@ campaigns")::
           epoch_utc: ["2026-01-01T00:00:00Z", "2027-01-01T00:00:00Z"]
           raan_deg: [0.0, 360.0]
           true_anomaly_deg: [0.0, 360.0]
+        sensors:                               # optional; the base must declare sensors.*
+          star_tracker_noise_scale: [0.5, 4.0] # times the base's noise_arcsec (its shape kept)
+          star_tracker_rate_hz: [1.0, 10.0]
+          gyro_noise_rad_s: [1.0e-5, 5.0e-4]   # per sample
+          gyro_bias_rad_s: [0.0, 2.0e-3]       # |bias| per axis, random sign
       planner_variants: [improved, paper]
 
 ``instruments``, ``bright_objects`` and ``keep_in`` are optional: without one, the base
@@ -35,6 +40,12 @@ ones without per-object keys (the SPEC is refused otherwise).
 date-times, and the orbit's RAAN and true anomaly uniformly (deg); each of its keys is
 optional (absent: the base's value). The other orbit elements come from the base
 scenario, which must have an orbit.
+
+``sensors`` needs a base scenario with ``sensors.*``: each run gets its own
+``sensors.seed`` and, per key given, the star tracker's noise (the base's 3-vector times
+one uniform factor), its rate (Hz), the gyro's white noise (rad/s per sample) and its
+bias (each axis: a magnitude uniform in the range, a random sign); the rest is the
+base's.
 """
 
 from __future__ import annotations
@@ -115,6 +126,12 @@ class CampaignSpec:
     sky_epoch_s: tuple[int, int] | None = None
     sky_raan_deg: Range | None = None
     sky_true_anomaly_deg: Range | None = None
+    # The sensors drawn per run (False: the base's, no seed drawn).
+    sensors: bool = False
+    star_tracker_noise_scale: Range | None = None
+    star_tracker_rate_hz: Range | None = None
+    gyro_noise_rad_s: Range | None = None
+    gyro_bias_rad_s: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
@@ -148,8 +165,15 @@ _DISPERSIONS = {
     "actuators",
     "keep_in",
     "sky",
+    "sensors",
 }
 _SKY = {"epoch_utc", "raan_deg", "true_anomaly_deg"}
+_SENSORS = {
+    "star_tracker_noise_scale",
+    "star_tracker_rate_hz",
+    "gyro_noise_rad_s",
+    "gyro_bias_rad_s",
+}
 # Keys of an instrument that name the base scenario's bright objects.
 _PER_OBJECT = ("exclusion_deg", "avoids")
 
@@ -320,6 +344,20 @@ def load_spec(path: str | Path) -> CampaignSpec:
             raan = r.pair(sky["raan_deg"], f"{key}.sky.raan_deg", -math.inf)
         if sky.get("true_anomaly_deg") is not None:
             anomaly = r.pair(sky["true_anomaly_deg"], f"{key}.sky.true_anomaly_deg", -math.inf)
+    sensors = False
+    sensor_ranges: dict[str, Range | None] = dict.fromkeys(_SENSORS)
+    if d.get("sensors") is not None:
+        given = r.mapping(d["sensors"], f"{key}.sensors", _SENSORS)
+        if base_scenario.sensors is None:
+            raise r.fail(
+                f"{key}.sensors",
+                f"the base scenario {base} declares no sensors (sensors.*): the drawn "
+                "sensors take the rest of their declaration from it",
+            )
+        sensors = True
+        for name, value in given.items():
+            positive = name in ("star_tracker_noise_scale", "star_tracker_rate_hz")
+            sensor_ranges[name] = r.pair(value, f"{key}.sensors.{name}", 0.0, positive)
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)
@@ -352,6 +390,8 @@ def load_spec(path: str | Path) -> CampaignSpec:
         sky_epoch_s=epoch,
         sky_raan_deg=raan,
         sky_true_anomaly_deg=anomaly,
+        sensors=sensors,
+        **sensor_ranges,
     )
 
 

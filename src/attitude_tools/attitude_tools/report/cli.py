@@ -34,7 +34,7 @@ def write_report(
 
     An existing ``out_dir`` is replaced only when it holds a previous report.
     """
-    from .figures import FIGURES, render_figures  # matplotlib: only when writing
+    from .figures import figures_for, render_figures  # matplotlib: only when writing
     from .html import render_html
 
     out = check_replaceable(out_dir, (REPORT_MARKER,), "report")
@@ -50,7 +50,7 @@ def write_report(
         }
         with open(tmp / "summary.json", "w", encoding="utf-8") as f:
             dump_strict(document, f, indent=2)  # NaN/inf -> null, named in non_finite
-        page = render_html(runs, str(tmp), FIGURES)
+        page = render_html(runs, str(tmp), figures_for(runs))
         with open(tmp / REPORT_MARKER, "w", encoding="utf-8") as f:
             f.write(page)
         os.chmod(tmp, 0o755)

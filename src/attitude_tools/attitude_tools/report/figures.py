@@ -35,7 +35,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection  # type: ignore[import-untyped]
 
-from attitude_core.gnc.mrp import Vec3, to_principal
+from attitude_core.gnc.mrp import Vec3, principal_angle, relative, to_principal
 from attitude_core.record.metrics import arrival_time
 
 from .data import ReportRun
@@ -61,7 +61,7 @@ if TYPE_CHECKING:
     from matplotlib.artist import Artist
     from matplotlib.typing import RcKeyType
 
-__all__ = ["FIGURES", "render_figures"]
+__all__ = ["FIGURES", "ESTIMATION_FIGURES", "figures_for", "render_figures"]
 
 _Floats = npt.NDArray[np.float64]
 
@@ -114,6 +114,26 @@ FIGURES = {
         "violation.",
     ),
 }
+
+ESTIMATION_FIGURES = {
+    "estimation.png": (
+        "Estimate against truth",
+        "Runs with sensors: the principal angle between the estimated attitude the loop was "
+        "fed and the true body (deg) under the estimator's 3-sigma (3 sqrt(trace P_att), "
+        "shaded), and the error of the bias-corrected rate estimate (rad/s); the knowledge "
+        "3-sigma the guidance planned with dotted.",
+    ),
+}
+"""Figures only for runs that were flown on an estimate (``RunResult.estimate``)."""
+
+
+def figures_for(runs: Sequence[ReportRun]) -> dict[str, tuple[str, str]]:
+    """The figures of a report on ``runs``: :data:`FIGURES`, and the estimation figure
+    when a run was flown on an estimate."""
+    if any(r.run.estimate is not None for r in runs):
+        return {**FIGURES, **ESTIMATION_FIGURES}
+    return dict(FIGURES)
+
 
 RUN_COLORS = ("tab:blue", "tab:orange")
 PAIR_COLORS = (  # no green: green is the keep-in cones'
@@ -917,6 +937,38 @@ def _margin_limits(ax: Axes, series: Iterable[_Floats | None]) -> None:
     ax.set_ylim(min(lo, 0.0) - pad, hi + pad)
 
 
+def fig_estimation(ctx: _Context) -> Figure:
+    fig, (ax, axr) = plt.subplots(2, 1, figsize=(9.0, 6.6), sharex=True)
+    handles: list[Artist] = []
+    for k, run in enumerate(ctx.runs):
+        est = run.run.estimate
+        if est is None:
+            continue
+        color = ctx.run_color(k)
+        t = run.run.t
+        err = np.degrees(principal_angle(relative(est.sigma_bn, run.run.sigma_bn)))
+        ax.fill_between(t, 0.0, est.attitude_3sigma_deg, color=color, alpha=0.2, linewidth=0)
+        ax.plot(t, err, color=color, linewidth=1.2, gid=f"{run.label}/attitude_error")
+        knowledge = run.scenario.knowledge.attitude_3sigma_deg
+        ax.axhline(knowledge, color=color, linestyle=":", linewidth=1.2)
+        rate_err = np.linalg.norm(est.omega_b - run.run.omega_b, axis=1)
+        axr.plot(t, rate_err, color=color, linewidth=1.0)
+        axr.axhline(run.scenario.knowledge.rate_3sigma_rad_s, color=color, linestyle=":")
+        suffix = f" {run.label}" if ctx.compare else ""
+        handles += [
+            Line2D([], [], color=color, linewidth=1.2, label=f"error{suffix}"),
+            Patch(color=color, alpha=0.2, label=f"filter 3-sigma{suffix}"),
+            Line2D([], [], color=color, linestyle=":", label=f"knowledge 3-sigma{suffix}"),
+        ]
+    ax.set_ylabel("attitude estimate\nerror (deg)")
+    axr.set_ylabel("rate estimate\nerror (rad/s)")
+    axr.set_xlabel("time (s)")
+    handles += _arrival_lines(ctx, (ax, axr))
+    ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    fig.suptitle(f"{ctx.title}: estimate against truth")
+    return fig
+
+
 _BUILDERS: dict[str, Callable[[_Context], Figure]] = {
     "keepout_inertial.png": fig_keepout_inertial,
     "keepout_mrp.png": fig_keepout_mrp,
@@ -926,17 +978,18 @@ _BUILDERS: dict[str, Callable[[_Context], Figure]] = {
     "history_rate.png": fig_history_rate,
     "history_torque.png": fig_history_torque,
     "margin.png": fig_margin,
+    "estimation.png": fig_estimation,
 }
 
 
 def render_figures(
     runs: Sequence[ReportRun], out_dir: str, dpi: int = 120, mrp_grid: int = 48
 ) -> list[str]:
-    """Write every figure of ``FIGURES`` for the runs into ``out_dir``; their file names."""
+    """Write every figure of :func:`figures_for` the runs into ``out_dir``; their names."""
     ctx = _Context(runs, mrp_grid)
     written: list[str] = []
     with matplotlib.rc_context(STYLE):
-        for name in FIGURES:
+        for name in figures_for(runs):
             fig = _BUILDERS[name](ctx)
             try:
                 fig.savefig(

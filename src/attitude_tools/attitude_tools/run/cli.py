@@ -83,6 +83,7 @@ def run_scenario(
     plant: str = PLANT_SIM,
     plant_timeout_s: float = 60.0,
     namespace: str | None = None,
+    external_estimate: bool = False,
 ) -> tuple[dict[str, Any], Path]:
     """Run one scenario through the node graph; return (summary, run directory).
 
@@ -94,7 +95,9 @@ def run_scenario(
     ``node_params`` maps a node's log name (recorder, planner, controller, simulator)
     to extra ``NAME:=VALUE`` parameters for it. ``plant``: ``sim`` starts
     ``rigid_body_sim``; ``external`` starts no plant and waits up to ``plant_timeout_s``
-    for one (a hardware-in-the-loop bridge) to publish the state.
+    for one (a hardware-in-the-loop bridge) to publish the state. With a scenario that
+    declares ``sensors.*`` the estimator node runs on the plant's measurements, unless
+    ``external_estimate`` (an external plant that publishes its own estimate).
     """
     req = RunRequest(
         scenario_path=scenario_path,
@@ -107,6 +110,7 @@ def run_scenario(
         plant=plant,
         plant_timeout_s=plant_timeout_s,
         namespace=namespace,
+        external_estimate=external_estimate,
     )
     inputs = check_inputs(req)  # nothing written or started before this passes
     staged = stage_run(req, inputs, ros_environment(workspace))
@@ -163,7 +167,7 @@ def _parser() -> argparse.ArgumentParser:
         action="append",
         default=[],
         metavar="NODE:NAME:=VALUE",
-        help="extra parameter for one node (recorder, planner, controller, "
+        help="extra parameter for one node (recorder, estimator, planner, controller, "
         "simulator), e.g. simulator:lockstep.torque_timeout_s:=0.5",
     )
     parser.add_argument(
@@ -187,6 +191,14 @@ def _parser() -> argparse.ArgumentParser:
         help="ROS namespace of the run's nodes (default: a fresh /attitude_run_<id>); "
         "an external plant joins the run with `-r __ns:=NS`",
     )
+    parser.add_argument(
+        "--external-estimate",
+        action="store_true",
+        help="with --plant external and a scenario with sensors.*: the plant publishes its "
+        "own estimate on /spacecraft/attitude and /spacecraft/angular_velocity, so no "
+        "estimator is started (default: the plant publishes the raw sensors and the "
+        "estimator node filters them; docs/hil_bridge.md)",
+    )
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
     return parser
 
@@ -209,6 +221,11 @@ def _node_params(parser: argparse.ArgumentParser, args: argparse.Namespace) -> d
                 f"--param {item!r}: expected NODE:NAME:=VALUE with NODE one of {list(ROLES)}"
             )
         node_params.setdefault(node, []).append(assignment)
+    if args.external_estimate and args.plant != PLANT_EXTERNAL:
+        parser.error(
+            "--external-estimate: needs --plant external (the simulator's sensors "
+            "are always filtered by the estimator)"
+        )
     if args.plant == PLANT_EXTERNAL and graph.SIMULATOR.role in node_params:
         parser.error("--param simulator:...: no simulator is started with --plant external")
     return node_params
@@ -234,6 +251,7 @@ def main(argv: list[str] | None = None) -> int:
             plant=args.plant,
             plant_timeout_s=args.plant_timeout_s,
             namespace=args.run_namespace,
+            external_estimate=args.external_estimate,
         )
     except (
         ParameterError,

@@ -23,11 +23,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from attitude_core.config.scenario import Scenario, load_scenario
+from attitude_core.config.scenario import Scenario, ScenarioError, load_scenario
 from attitude_core.contract import node_graph as graph
 from attitude_core.contract.node_graph import NodeSpec
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.contract.topics import ATTITUDE
+from attitude_core.contract.topics import ATTITUDE, IMU, STAR_TRACKER
 from attitude_core.runtime import run_identity
 from attitude_core.runtime.recording import EXIT_NO_PLANT
 from attitude_tools.bag.recovery import (
@@ -72,7 +72,7 @@ __all__ = [
     "write_summary",
 ]
 
-ROLES = tuple(n.role for n in graph.NODES)
+ROLES = tuple(n.role for n in graph.SENSING_NODES)
 PLANT_SIM, PLANT_EXTERNAL = "sim", "external"
 PLANTS = (PLANT_SIM, PLANT_EXTERNAL)
 # Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
@@ -97,6 +97,7 @@ class RunRequest:
     plant: str
     plant_timeout_s: float
     namespace: str | None
+    external_estimate: bool = False  # an external plant feeds its own estimate
 
 
 @dataclass(frozen=True)
@@ -106,6 +107,7 @@ class CheckedInputs:
     scenario: Scenario
     out: Path
     started: list[NodeSpec[Any]]  # the nodes this run starts, in start order
+    nodes: graph.Graph  # the run's node graph (with the estimator when sensing)
     extra: dict[str, list[str]]  # each role's ``--param`` items as ``-p NAME:=VALUE``
     wall0: float  # monotonic time the run began
 
@@ -143,15 +145,25 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
     """Load the scenario, check ``--param`` and ``--out``; nothing written or started."""
     if req.plant not in PLANTS:
         raise ValueError(f"plant must be one of {list(PLANTS)}, got {req.plant!r}")
-    started = [n for n in graph.NODES if req.plant == PLANT_SIM or n is not graph.SIMULATOR]
+    if req.external_estimate and req.plant != PLANT_EXTERNAL:
+        raise ValueError("an external estimate needs an external plant (--plant external)")
     extra = {
         name: [arg for p in req.node_params.get(name, ()) for arg in ("-p", p)] for name in ROLES
     }
     wall0 = time.monotonic()
     scenario = load_scenario(req.scenario_path)
+    if req.external_estimate and scenario.sensors is None:
+        raise ScenarioError(
+            req.scenario_path,
+            "sensors",
+            "missing: an external estimate needs the sensors it comes from (sensors.*: the "
+            "guidance's knowledge bounds)",
+        )
+    nodes = graph.graph(scenario.sensors is not None and not req.external_estimate)
+    started = [n for n in nodes.nodes if req.plant == PLANT_SIM or n is not graph.SIMULATOR]
     check_node_params(req.scenario_path, req.node_params, started)  # before anything is written
     out = check_replaceable(req.out_dir, ("summary.json", "bag"), "run directory")
-    return CheckedInputs(scenario, out, started, extra, wall0)
+    return CheckedInputs(scenario, out, started, nodes, extra, wall0)
 
 
 # -- 2. prepare the output and the domain ----------------------------------------------
@@ -210,7 +222,7 @@ def run_nodes(
         _start_nodes(req, inputs, staged, nodes)
         end_reason, failure = _wait_for_end(req, inputs, staged, nodes, stop_requested)
     finally:
-        codes, shutdown_s = _stop_nodes(nodes, inputs.started)
+        codes, shutdown_s = _stop_nodes(nodes, inputs.started, inputs.nodes)
         for s, h in handlers.items():
             signal.signal(s, h)
         if staged.reservation is not None:
@@ -218,7 +230,7 @@ def run_nodes(
     return RunEnd(end_reason, failure, codes, shutdown_s)
 
 
-def _own_args(req: RunRequest, tmp: Path) -> dict[str, list[str]]:
+def _own_args(req: RunRequest, tmp: Path, nodes: graph.Graph) -> dict[str, list[str]]:
     """The parameters ``attitude-run`` sets itself: the recorder's and the simulator's."""
     ending = ",".join(status.value for status in PlannerStatus.ending())
     wait_for_plant_s = float(req.plant_timeout_s) if req.plant == PLANT_EXTERNAL else 0.0
@@ -239,7 +251,7 @@ def _own_args(req: RunRequest, tmp: Path) -> dict[str, list[str]]:
             "-p",
             f"time_mode:={req.time_mode}",
             "-p",
-            f"lockstep.expected_subscribers:={graph.state_listeners()}",
+            f"lockstep.expected_subscribers:={graph.state_listeners(nodes.nodes)}",
         ],
     }
 
@@ -249,7 +261,7 @@ def _start_nodes(
 ) -> None:
     """Start the nodes in start order, in the run's namespace; say where they run."""
     params = ["--params-file", str(Path(req.scenario_path).resolve())]
-    own_args = _own_args(req, staged.tmp)
+    own_args = _own_args(req, staged.tmp, inputs.nodes)
     for spec in inputs.started:  # in start order
         scenario_args = params if spec.parameters.scenario is not None else []
         nodes.start(
@@ -265,12 +277,13 @@ def _start_nodes(
         f"ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}; logs in {inputs.out / 'logs'}"
     )
     if req.plant == PLANT_EXTERNAL:
+        feeds = IMU + " and " + STAR_TRACKER if inputs.nodes.sensing else ATTITUDE
         req.log(
             f"attitude-run: waiting up to {req.plant_timeout_s:g} s for an external plant on "
-            f"{ATTITUDE} (ROS_DOMAIN_ID={env.get('ROS_DOMAIN_ID', '0')}); start it with "
+            f"{feeds} (ROS_DOMAIN_ID={env.get('ROS_DOMAIN_ID', '0')}); start it with "
             f"-r __ns:={namespace} "
             f"--params-file {Path(req.scenario_path).resolve()} -p time_mode:={time_mode} "
-            f"-p lockstep.expected_subscribers:={graph.state_listeners()}"
+            f"-p lockstep.expected_subscribers:={graph.state_listeners(inputs.nodes.nodes)}"
         )
 
 
@@ -305,11 +318,13 @@ def _wait_for_end(
             return failure, failure
 
 
-def _stop_nodes(nodes: NodeGraph, started: list[NodeSpec[Any]]) -> tuple[dict[str, int], float]:
+def _stop_nodes(
+    nodes: NodeGraph, started: list[NodeSpec[Any]], nodes_graph: graph.Graph
+) -> tuple[dict[str, int], float]:
     """Stop the control loop's nodes, then the observers (the recorder finishes the bag);
     (exit codes by role, shutdown time in s)."""
     stop_t0 = time.monotonic()
-    loop, observers = graph.STOP_ORDER
+    loop, observers = nodes_graph.stop_order
     codes = nodes.stop([n.role for n in loop if n in started], NODE_GRACE_S)
     codes.update(nodes.stop([n.role for n in observers], RECORDER_GRACE_S))
     return codes, time.monotonic() - stop_t0

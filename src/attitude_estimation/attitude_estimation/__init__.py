@@ -1,0 +1,1 @@
+"""The attitude estimator node: an MEKF on star tracker and gyro (Markley and Crassidis)."""

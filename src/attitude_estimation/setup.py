@@ -1,0 +1,24 @@
+from setuptools import setup
+
+package_name = 'attitude_estimation'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=[package_name],
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='Attitude Stack Maintainers',
+    maintainer_email='maintainers@attitude-stack.dev',
+    description='Attitude estimator node: MEKF on star tracker and gyro with bias estimation',
+    license='Apache-2.0',
+    entry_points={
+        'console_scripts': [
+            'mekf_estimator = attitude_estimation.estimator_node:main',
+        ],
+    },
+)
