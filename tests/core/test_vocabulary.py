@@ -30,6 +30,12 @@ TOPIC_NAMES = {topic.name for topic in t.TOPICS}
 TOPIC_CONSTANTS = {
     k: v for k, v in vars(t).items() if k.isupper() and isinstance(v, str) and v in TOPIC_NAMES
 }
+# ... and those that name a tuple of them (c.STATE_TOPICS, c.SENSOR_TOPICS, ...).
+TOPIC_TUPLES = {
+    k: set(v)
+    for k, v in vars(t).items()
+    if k.isupper() and isinstance(v, tuple) and v and set(v) <= TOPIC_NAMES
+}
 
 
 # --- status ----------------------------------------------------------------------------
@@ -226,7 +232,7 @@ def module_file(spec: g.NodeSpec) -> Path:
     return SRC / spec.package / package / f"{module}.py"
 
 
-@pytest.mark.parametrize("spec", g.NODES, ids=lambda s: s.role)
+@pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_executable_is_a_console_script_of_its_package(spec):
     scripts = console_scripts(spec.package)
     assert spec.executable in scripts, scripts
@@ -234,7 +240,7 @@ def test_executable_is_a_console_script_of_its_package(spec):
     assert spec.module.split(".")[0] == spec.package
 
 
-@pytest.mark.parametrize("spec", g.NODES, ids=lambda s: s.role)
+@pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_module_is_a_real_file_with_main(spec):
     path = module_file(spec)
     assert path.is_file(), path
@@ -242,7 +248,7 @@ def test_node_module_is_a_real_file_with_main(spec):
     assert "main" in {f.name for f in tree.body if isinstance(f, ast.FunctionDef)}
 
 
-@pytest.mark.parametrize("spec", g.NODES, ids=lambda s: s.role)
+@pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_topics_are_contract_topics(spec):
     for name in spec.subscribes + spec.publishes:
         assert name in TOPIC_NAMES, name
@@ -321,6 +327,8 @@ def _topic_constants_in(node: ast.AST) -> set[str]:
                 names |= TOPIC_NAMES
             elif sub.attr in TOPIC_CONSTANTS:
                 names.add(TOPIC_CONSTANTS[sub.attr])
+            elif sub.attr in TOPIC_TUPLES:
+                names |= TOPIC_TUPLES[sub.attr]
     return names
 
 
@@ -328,10 +336,13 @@ def _bound_names(target: ast.AST) -> set[str]:
     return {n.id for n in ast.walk(target) if isinstance(n, ast.Name)}
 
 
-def _topics_of_argument(arg: ast.AST, loops: list[ast.For]) -> set[str]:
+def _topics_of_argument(
+    arg: ast.AST, loops: list[ast.For], bound: dict[str, ast.AST] | None = None
+) -> set[str]:
     """The topic names an endpoint's topic argument can take: a contract constant
-    (``c.ATTITUDE``) or a variable bound by an enclosing ``for`` over constants or over
-    ``c.TOPICS`` (``topic.name``)."""
+    (``c.ATTITUDE``), a variable bound by an enclosing ``for`` over constants or over
+    ``c.TOPICS`` (``topic.name``), or a variable assigned from constants (every constant
+    of the assigned expression: ``a, b = c.TRUTH_TOPICS if x else c.STATE_TOPICS``)."""
     if isinstance(arg, ast.Attribute) and arg.attr in TOPIC_CONSTANTS:
         return {TOPIC_CONSTANTS[arg.attr]}
     var = arg.value if isinstance(arg, ast.Attribute) and arg.attr == "name" else arg
@@ -341,6 +352,10 @@ def _topics_of_argument(arg: ast.AST, loops: list[ast.For]) -> set[str]:
                 names = _topic_constants_in(loop.iter)
                 if names:
                     return names
+        if bound and var.id in bound:
+            names = _topic_constants_in(bound[var.id])
+            if names:
+                return names
     raise AssertionError(f"line {arg.lineno}: cannot resolve the topic of {ast.unparse(arg)!r}")
 
 
@@ -377,11 +392,12 @@ def endpoints(source: str) -> dict[str, set[str]]:
                 topic_index[target.id] = index
     found: dict[str, set[str]] = {"sub": set(), "pub": set()}
     bound = {
-        target.id: node.value
+        name.id: node.value
         for node in ast.walk(tree)
         if isinstance(node, ast.Assign)
         for target in node.targets
-        if isinstance(target, ast.Name)
+        for name in ([target] if isinstance(target, ast.Name) else ast.walk(target))
+        if isinstance(name, ast.Name)
     }
 
     def visit(node: ast.AST, loops: list[ast.For]) -> None:
@@ -413,7 +429,7 @@ def endpoints(source: str) -> dict[str, set[str]]:
                     else next((kw.value for kw in node.keywords if kw.arg == "topic"), None)
                 )
                 assert topic is not None, f"line {node.lineno}: an endpoint without a topic"
-                found[kind] |= _topics_of_argument(topic, loops)
+                found[kind] |= _topics_of_argument(topic, loops, bound)
         inner = loops + [node] if isinstance(node, ast.For) else loops
         for child in ast.iter_child_nodes(node):
             visit(child, inner)
@@ -422,14 +438,19 @@ def endpoints(source: str) -> dict[str, set[str]]:
     return found
 
 
-@pytest.mark.parametrize("spec", g.NODES, ids=lambda s: s.role)
+@pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_sources_subscribe_and_publish_their_table_topics(spec):
-    found = endpoints(module_file(spec).read_text(encoding="utf-8"))
+    """Over the node's module and the package modules beside it (the simulator's sensor
+    publishers are in their own)."""
+    found: dict[str, set[str]] = {"sub": set(), "pub": set()}
+    for path in sorted(module_file(spec).parent.glob("*.py")):
+        for kind, names in endpoints(path.read_text(encoding="utf-8")).items():
+            found[kind] |= names
     assert found["sub"] == set(spec.subscribes), spec.role
     assert found["pub"] == set(spec.publishes), spec.role
 
 
-@pytest.mark.parametrize("spec", g.NODES, ids=lambda s: s.role)
+@pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_sources_take_their_name_from_the_table(spec):
     text = module_file(spec).read_text(encoding="utf-8")
     # Named from the table directly, or through StackNode (which takes spec.node_name).

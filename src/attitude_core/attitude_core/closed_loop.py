@@ -10,7 +10,9 @@ The nodes run the same functions, one per process.
 
 With declared sensors (``sensors.*``) the guidance and the controller are fed the MEKF's
 estimate of the body (:class:`attitude_core.gnc.sensing.OnboardEstimation`), never the
-body itself; the record keeps the true state and the estimate side by side.
+body itself: the guidance starts from the first estimate, as the planner node starts
+from the first state it receives. The record keeps the true state and the estimate side
+by side.
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     n = scenario.n_steps
     dt = scenario.dt_s
     dt_ns = round(dt * NS_PER_S)
-    guidance = Guidance.from_scenario(scenario)
+    guidance = Guidance.from_scenario(scenario) if scenario.sensors is None else None
     gains = PdGains(scenario.kp, scenario.kd)
     limit = scenario.actuators.max_torque_nm
     body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
@@ -61,6 +63,8 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
             if est is None:
                 raise RuntimeError(f"{scenario.name}: no star tracker fix at t = {t_k} s")
             sigma_m, omega_m = est.sigma_bn, est.omega_b
+        if guidance is None:  # the first estimate: the guidance starts from it
+            guidance = Guidance.from_scenario(scenario, sigma_0=sigma_m)
         c0 = clock()
         target = guidance.update(t_k, sigma_m, omega_m).target
         step_s[k] = clock() - c0
@@ -72,6 +76,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         status[k] = target.status.code
         if k < n:
             body.step(u, dt)
+    assert guidance is not None  # made at the first step
     return RunResult(
         scenario,
         dt * np.arange(n + 1),

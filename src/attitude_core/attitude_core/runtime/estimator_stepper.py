@@ -62,7 +62,9 @@ class EstimatorStepper:
         return self.poll(now_s)
 
     def on_star_tracker(self, now_s: float, stamp_ns: int, quat: _Floats) -> list[StampedEstimate]:
-        if stamp_ns <= self.last_stamp_ns:
+        if stamp_ns == self.last_stamp_ns:
+            return []  # a re-sent state's sample: its step is filtered
+        if stamp_ns < self.last_stamp_ns:
             self.late += 1
             return []
         self._tracker[stamp_ns] = np.asarray(quat, dtype=float)
