@@ -151,3 +151,37 @@ def test_an_external_estimate_needs_an_external_plant():
     )  # fmt: skip
     assert run.returncode == 2
     assert "--external-estimate" in run.stderr and "--plant external" in run.stderr
+
+
+def test_the_report_plots_the_estimate_against_the_truth(sensed_run, tmp_path):
+    run, out = sensed_run
+    assert run.returncode == 0, run.stdout + run.stderr
+    report = subprocess.run(
+        [str(BIN / "attitude-report"), str(out), "--out", str(tmp_path / "report"), "--quiet"],
+        capture_output=True, text=True, timeout=600,
+    )  # fmt: skip
+    assert report.returncode == 0, report.stdout + report.stderr
+    assert (tmp_path / "report" / "estimation.png").is_file()
+    assert 'id="estimation.png"' in (tmp_path / "report" / "report.html").read_text()
+    import matplotlib.pyplot as plt
+
+    from attitude_tools.report import figures
+    from attitude_tools.report.data import load_run
+
+    loaded = load_run(str(out))
+    est = loaded.run.estimate
+    assert est is not None and np.isfinite(est.attitude_3sigma_deg[1:]).all()
+    fig = figures.fig_estimation(figures._Context([loaded], mrp_grid=16))
+    try:
+        (line,) = [
+            a
+            for ax in fig.axes
+            for a in ax.get_lines()
+            if a.get_gid() == f"{loaded.label}/attitude_error"
+        ]
+        expected = np.degrees(principal_angle(relative(est.sigma_bn, loaded.run.sigma_bn)))
+        np.testing.assert_allclose(line.get_ydata(), expected)
+        # the filter's 3-sigma bounds the error most of the time (a consistent filter)
+        assert np.mean(expected[1:] <= est.attitude_3sigma_deg[1:]) > 0.9
+    finally:
+        plt.close(fig)

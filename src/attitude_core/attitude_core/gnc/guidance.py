@@ -59,14 +59,20 @@ the target for that instant:
    its clearance.
 7. **Status on the body.** ``arrived`` only once the target is on the goal *and* the
    body is within the arrival tolerances (attitude and rate); it is withdrawn if the
-   body leaves twice those tolerances. ``stuck`` when neither the target's nor the
-   body's distance to the goal has improved for ``planner.stuck_timeout_s`` (plus,
-   with limits, the time to stop from the rate bound); the target then holds.
+   body leaves twice those tolerances. On estimates (declared sensors,
+   :mod:`attitude_core.gnc.knowledge`) the tolerances are at least the knowledge
+   3-sigma and the body's error and rate are those of the means over the last decision
+   window; the start is held while the filter settles; the buffer holds the knowledge
+   3-sigma (the governor's ``e_hold`` stays half of the rest). ``stuck`` when neither
+   the target's nor the body's distance to the goal has improved for
+   ``planner.stuck_timeout_s`` (plus, with limits, the time to stop from the rate
+   bound); the target then holds.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
 from dataclasses import dataclass, replace
@@ -92,11 +98,13 @@ from attitude_core.gnc.moving_sky import (
     nominal_eta_s,
 )
 from attitude_core.gnc.mrp import (
+    Vec3,
     Vec3Like,
     angle_between_single,
     dcm_rows_from_mrp,
     mrp_rate_single,
     omega_from_mrp_rate_single,
+    relative_single,
 )
 from attitude_core.gnc.route import Route, RoutePlanner
 from attitude_core.gnc.route_following import RouteFollower, braking_speed, corner_speed
@@ -288,8 +296,8 @@ class Guidance:
             0.5 * (planner.geometry.inflation_deg - knowledge.attitude_3sigma_deg), _MIN_HOLD_DEG
         )
         self._behind_since: float | None = None  # the governor has held since (state time)
-        self._inside_since: float | None = None  # within the arrival tolerances since
-        self._outside_since: float | None = None  # arrived, beyond twice them since
+        # On estimates: the last decision window of (time, sigma_B/D, omega_B).
+        self._recent: deque[tuple[float, Vec3, Vec3]] = deque()
         self.derating = 1.0  # share of the declared acceleration the plant has shown
         self._derated_at = -math.inf
         self.goal = np.asarray(planner.goal, dtype=float)
@@ -547,7 +555,10 @@ class Guidance:
                 factor = 0.0  # held
         rate_b = math.hypot(float(omega_b[0]), float(omega_b[1]), float(omega_b[2]))
         if not settling:
-            self._judge(float(t_s), dt, e_goal, rate_b)
+            decide = (e_goal, rate_b)
+            if self.knowledge.decision_window_s > 0.0:
+                decide = self._window_mean(float(t_s), sigma_bn, omega_b)
+            self._judge(dt, e_goal, decide)
         return GuidanceOutput(
             replace(out, status=self.status), e_track, e_goal, factor, self.derating
         )
@@ -702,32 +713,43 @@ class Guidance:
             guide.next_route_s = t_s + ROUTE_REFRESH_S
             self._submit_route()
 
-    def _judge(self, t_s: float, dt: float, e_goal_deg: float, rate_b: float) -> None:
-        """Step 7 of the module docstring. On estimates, an arrival (and its withdrawal)
-        is taken once its condition has held over the knowledge's decision window."""
+    def _window_mean(
+        self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like
+    ) -> tuple[float, float]:
+        """The arrival's decision values on estimates: the attitude error (deg) and the
+        rate (rad/s) of the mean ``sigma_B/D`` and ``omega_B`` over the last decision
+        window; infinite until the window is full (a filtered decision, never one noisy
+        sample: white noise shrinks by the square root of the samples)."""
+        window = self.knowledge.decision_window_s
+        err = relative_single(sigma_bn, self.goal)
+        w = (float(omega_b[0]), float(omega_b[1]), float(omega_b[2]))
+        recent = self._recent
+        recent.append((t_s, err, w))
+        while recent[0][0] < t_s - window - 1e-9:
+            recent.popleft()
+        if t_s - recent[0][0] < window - 1e-9:
+            return math.inf, math.inf
+        n = len(recent)
+        mean_e = [sum(r[1][i] for r in recent) / n for i in range(3)]
+        mean_w = [sum(r[2][i] for r in recent) / n for i in range(3)]
+        e_deg = math.degrees(4.0 * math.atan(math.hypot(*mean_e)))
+        return e_deg, math.hypot(*mean_w)
+
+    def _judge(self, dt: float, e_goal_deg: float, decide: tuple[float, float]) -> None:
+        """Step 7 of the module docstring: the arrival on ``decide`` (the attitude error,
+        deg, and the rate, rad/s: the body's, or on estimates their window means), the
+        progress on ``e_goal_deg``."""
         planner = self.planner
         if self.status in (PlannerStatus.STUCK, PlannerStatus.INFEASIBLE, PlannerStatus.BLOCKED):
             return
         on_goal = planner.status == PlannerStatus.ARRIVED
-        window = self.knowledge.decision_window_s
-        if self.status != PlannerStatus.ARRIVED:
-            inside = (
-                on_goal and e_goal_deg <= self.attitude_tol_deg and rate_b <= self.rate_tol_rad_s
-            )
-            if not inside:
-                self._inside_since = None
-            elif self._inside_since is None:
-                self._inside_since = t_s
-            if self._inside_since is not None and t_s - self._inside_since >= window:
-                self.status, self._outside_since = PlannerStatus.ARRIVED, None
-        else:
-            outside = e_goal_deg > 2.0 * self.attitude_tol_deg or rate_b > 2.0 * self.rate_tol_rad_s
-            if not outside:
-                self._outside_since = None
-            elif self._outside_since is None:
-                self._outside_since = t_s
-            if self._outside_since is not None and t_s - self._outside_since >= window:
-                self.status, self._inside_since = PlannerStatus.TRACKING, None
+        e_dec, rate_dec = decide
+        if on_goal and e_dec <= self.attitude_tol_deg and rate_dec <= self.rate_tol_rad_s:
+            self.status = PlannerStatus.ARRIVED
+        elif self.status == PlannerStatus.ARRIVED and (
+            e_dec > 2.0 * self.attitude_tol_deg or rate_dec > 2.0 * self.rate_tol_rad_s
+        ):
+            self.status = PlannerStatus.TRACKING
         if self.status == PlannerStatus.ARRIVED:
             self._since_progress = 0.0
             return

@@ -18,10 +18,11 @@ first state):
   the guidance takes it (arrival, its withdrawal, the acceleration derating); 0 with
   perfect knowledge, where one sample is the truth.
 * ``settle_s``: the state time the filter takes, from its first fix (the tracker's
-  noise, the bias prior), until its attitude 3-sigma is within ``attitude_3sigma_deg``.
-  The guidance holds the start until then, as flight software waits for attitude
-  determination to converge before a slew: the buffer holds the settled 3-sigma, not
-  the first fix's.
+  noise, the bias prior), until its attitude 3-sigma is within ``attitude_3sigma_deg``,
+  at most :data:`MAX_SETTLE_S` (a filter without process noise has no steady state to
+  settle to: then the bound is its 3-sigma at that time). The guidance holds the start
+  until then, as flight software waits for attitude determination to converge before a
+  slew: the buffer holds the settled 3-sigma, not the first fix's.
 """
 
 from __future__ import annotations
@@ -34,7 +35,14 @@ import numpy as np
 from attitude_core.gnc.mekf import MekfConfig, process_noise, steady_state_covariance
 from attitude_core.gnc.sensors import SensorSpec, star_tracker_due
 
-__all__ = ["Knowledge", "PERFECT", "DECISION_WINDOW_S", "SETTLED_RATIO", "knowledge_of"]
+__all__ = [
+    "Knowledge",
+    "PERFECT",
+    "DECISION_WINDOW_S",
+    "SETTLED_RATIO",
+    "MAX_SETTLE_S",
+    "knowledge_of",
+]
 
 DECISION_WINDOW_S = 1.0
 """State time a decision taken on estimates must hold, s (several star tracker samples
@@ -44,7 +52,8 @@ SETTLED_RATIO = 2.0
 """The filter has settled once its attitude 3-sigma is within this factor of the steady
 (a few seconds with a good tracker, about 20 s with a coarse one and a poor gyro)."""
 
-_MAX_SETTLE_S = 600.0
+MAX_SETTLE_S = 30.0
+"""The longest wait for the filter at the start, s."""
 
 
 @dataclass(frozen=True)
@@ -69,16 +78,17 @@ def knowledge_of(spec: SensorSpec, dt_s: float) -> Knowledge:
     cfg = MekfConfig.from_spec(spec, dt_s)
     p = steady_state_covariance(cfg, spec.star_tracker_rate_hz)
     steady = float(np.trace(p[:3, :3]))
-    attitude = SETTLED_RATIO * 3.0 * math.degrees(math.sqrt(steady))
+    settle, trace = _settle(cfg, spec.star_tracker_rate_hz, SETTLED_RATIO**2 * steady)
+    attitude = 3.0 * math.degrees(math.sqrt(max(trace, SETTLED_RATIO**2 * steady)))
     rate = 3.0 * math.sqrt(3.0 * spec.gyro_noise_rad_s**2 + float(np.trace(p[3:, 3:])))
-    settle = _settle_s(cfg, spec.star_tracker_rate_hz, SETTLED_RATIO**2 * steady)
     return Knowledge(attitude, rate, DECISION_WINDOW_S, settle)
 
 
-def _settle_s(cfg: MekfConfig, rate_hz: float, limit: float) -> float:
+def _settle(cfg: MekfConfig, rate_hz: float, limit: float) -> tuple[float, float]:
     """The filter's covariance recursion from its first fix at rest (``Phi = [[I, -dt I],
     [0, I]]``): the time its attitude trace before a star tracker sample first falls
-    to ``limit`` (rad^2; :attr:`Knowledge.settle_s`)."""
+    to ``limit`` (rad^2), at most :data:`MAX_SETTLE_S`, and that trace
+    (:attr:`Knowledge.settle_s`)."""
     dt = cfg.dt_s
     r = np.diag(np.array(cfg.star_tracker_noise_rad, dtype=float) ** 2)
     p = np.zeros((6, 6))
@@ -87,11 +97,14 @@ def _settle_s(cfg: MekfConfig, rate_hz: float, limit: float) -> float:
     phi = np.eye(6)
     phi[:3, 3:] = -dt * np.eye(3)
     qd = process_noise(cfg, dt)
-    for k in range(1, round(_MAX_SETTLE_S / dt) + 1):
+    worst = float(np.trace(p[:3, :3]))  # the largest pre-update trace of the last period
+    last = round(MAX_SETTLE_S / dt)
+    for k in range(1, last + 1):
         p = phi @ p @ phi.T + qd
         if star_tracker_due(k * dt, rate_hz, dt):
-            if float(np.trace(p[:3, :3])) <= limit:
-                return k * dt
+            worst = float(np.trace(p[:3, :3]))
+            if worst <= limit:
+                return k * dt, worst
             gain = p[:, :3] @ np.linalg.inv(p[:3, :3] + r)
             p = p - gain @ p[:3, :]
-    return _MAX_SETTLE_S
+    return last * dt, max(worst, float(np.trace(p[:3, :3])))

@@ -355,9 +355,9 @@ def load_spec(path: str | Path) -> CampaignSpec:
                 "sensors take the rest of their declaration from it",
             )
         sensors = True
-        for name, value in given.items():
-            positive = name in ("star_tracker_noise_scale", "star_tracker_rate_hz")
-            sensor_ranges[name] = r.pair(value, f"{key}.sensors.{name}", 0.0, positive)
+        for field, value in given.items():
+            positive = field in ("star_tracker_noise_scale", "star_tracker_rate_hz")
+            sensor_ranges[field] = r.pair(value, f"{key}.sensors.{field}", 0.0, positive)
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)

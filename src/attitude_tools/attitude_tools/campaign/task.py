@@ -49,6 +49,26 @@ def _or_nan(value: float | None) -> float:
     return math.nan if value is None else float(value)
 
 
+def _sensor_columns(sc: Any, summary: dict[str, Any]) -> dict[str, float]:
+    """The run's sensors and its estimate against the truth (NaN without sensors)."""
+    spec = sc.sensors
+    error = summary["estimation_error_deg"] or {}
+    arcsec = math.degrees(1.0) * 3600.0
+    return {
+        "star_tracker_noise_arcsec_max": (
+            math.nan if spec is None else max(spec.star_tracker_noise_rad) * arcsec
+        ),
+        "star_tracker_rate_hz": math.nan if spec is None else spec.star_tracker_rate_hz,
+        "gyro_noise_rad_s": math.nan if spec is None else spec.gyro_noise_rad_s,
+        "gyro_bias_rad_s_norm": (math.nan if spec is None else math.hypot(*spec.gyro_bias_rad_s)),
+        "knowledge_3sigma_deg": _or_nan(summary["knowledge_3sigma_deg"]),
+        "estimation_error_deg_p99": _or_nan(error.get("p99")),
+        "estimation_error_deg_max": _or_nan(error.get("max")),
+        "filter_nees_mean": _or_nan(summary["filter_nees_mean"]),
+        "final_attitude_error_deg": summary["final_attitude_error_deg"],
+    }
+
+
 def reproducer(spec: CampaignSpec, i: int, variant: str) -> str:
     """A complete scenario file that reproduces run ``i`` with ``variant``."""
     draw = draw_run(spec, base_parameters(spec), i, variant)
@@ -110,6 +130,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "wall_time_s": summary["wall_time_s"],
         "loop_s": t2 - t1,
         "metrics_s": t3 - t2,
+        **_sensor_columns(sc, summary),
     }
     row["task_s"] = time.perf_counter() - t0
     return row
