@@ -30,16 +30,21 @@ def _grants(xml: str) -> dict[str, dict[str, set[str]]]:
 
 def test_every_node_gets_its_table_topics_and_no_other_contract_topic():
     grants = _grants(policy_xml())
-    assert set(grants) == {n.node_name for n in node_graph.NODES}
+    assert set(grants) == {n.node_name for n in node_graph.SENSING_NODES}
     contract = {topic.name for topic in t.TOPICS}
-    for spec in node_graph.NODES:
+    for spec in node_graph.SENSING_NODES:
         got = grants[spec.node_name]
         assert got["publish"] & contract == set(spec.publishes) | {t.DIAGNOSTICS}
         assert got["subscribe"] & contract == set(spec.subscribes) | {t.DIAGNOSTICS}
-    # Who may command the body: the controller alone publishes the torque, and only the
-    # simulator (the plant) publishes the state.
+    # Who may command the body: the controller alone publishes the torque; only the
+    # simulator (the plant) publishes the state, or with sensors the estimator its
+    # estimate; only the plant publishes the measurements.
     assert [n for n, g in grants.items() if t.TORQUE in g["publish"]] == ["pd_controller"]
-    assert [n for n, g in grants.items() if t.ATTITUDE in g["publish"]] == ["rigid_body_sim"]
+    assert sorted(n for n, g in grants.items() if t.ATTITUDE in g["publish"]) == [
+        "mekf_estimator",
+        "rigid_body_sim",
+    ]
+    assert [n for n, g in grants.items() if t.IMU in g["publish"]] == ["rigid_body_sim"]
 
 
 def test_the_documented_policy_is_the_generated_one():

@@ -45,10 +45,10 @@ def permissions(spec: node_graph.NodeSpec[Any]) -> tuple[list[str], list[str]]:
 
 
 def policy_xml(enclave_root: str = "/attitude", namespace: str = "/") -> str:
-    """The policy document, one enclave per node of the table."""
+    """The policy document, one enclave per node of the table (the estimator included)."""
     policy = ET.Element("policy", version="0.2.0")
     enclaves = ET.SubElement(policy, "enclaves")
-    for spec in node_graph.NODES:
+    for spec in node_graph.SENSING_NODES:
         enclave = ET.SubElement(enclaves, "enclave", path=f"{enclave_root}/{spec.role}")
         profiles = ET.SubElement(enclave, "profiles")
         profile = ET.SubElement(profiles, "profile", ns=namespace, node=spec.node_name)
