@@ -47,6 +47,8 @@ SUMMARY_KEYS = (
     "peak_rate_to_bound",
     "final_rate_rad_s",
     "final_attitude_error_deg",
+    "knowledge_3sigma_deg",
+    "estimation_error_deg_p99",
     "planner_step_us_median",
     "planner_step_us_p99",
     "steps_recorded",
@@ -111,6 +113,7 @@ def load_run(run_dir: str, label: str | None = None) -> ReportRun:
         raise BagError(f"cannot read the bag at {bag_dir}: {err}") from err
     full = summarize_bag(bag_run)
     full["time_mode"] = time_mode
+    full["estimation_error_deg_p99"] = (full["estimation_error_deg"] or {}).get("p99")
     summary = _json_ready({k: full[k] for k in SUMMARY_KEYS})
     sc = bag_run.run.scenario
     if label is None:

@@ -51,6 +51,8 @@ ROWS = (
     ("peak_rate_to_bound", "peak |omega| / max_rate_rad_s", ""),
     ("final_rate_rad_s", "final rate |omega|", "rad/s"),
     ("final_attitude_error_deg", "final attitude error", "deg"),
+    ("knowledge_3sigma_deg", "knowledge 3-sigma the guidance planned with (sensors)", "deg"),
+    ("estimation_error_deg_p99", "estimate against truth, attitude error p99 (sensors)", "deg"),
     ("planner_step_us_median", "planner step time, median (/diagnostics)", "us"),
     ("planner_step_us_p99", "planner step time, p99 (/diagnostics)", "us"),
     ("steps_recorded", "steps recorded", ""),
