@@ -245,3 +245,22 @@ def test_the_guidance_arrives_on_raw_noisy_states(name, attitude_deg, rate_rad_s
     t = sc.dt_s * np.arange(len(sigma))
     margin, _ = dense_min_margin_deg(sc.sky, t, np.array(sigma), np.array(omega))
     assert margin > 0.0
+
+
+def test_an_estimated_start_flies_the_route_prepared_before_the_first_state():
+    """The planner node prepares the route from the scenario's start before its first
+    state; a first estimate within the first fix's 3-sigma of that start takes it (no
+    route planned while the simulator waits for the first torque), one beyond does not."""
+    from scipy.spatial.transform import Rotation
+
+    from attitude_core.gnc.guidance import Guidance
+
+    sc = _with_sensors("case1_wheels", COARSE)
+    prepared = Guidance.prepare(sc)
+    first_fix = sc.knowledge.first_fix_3sigma_deg
+    assert first_fix > 0.5  # 0.3 deg about x, 0.1 across: 3 sqrt(0.11) deg
+    start = Rotation.from_mrp(np.array(sc.initial_mrp))
+    for off_deg, taken in ((0.5 * first_fix, True), (2.0 * first_fix, False)):
+        sigma_0 = (start * Rotation.from_rotvec([math.radians(off_deg), 0.0, 0.0])).as_mrp()
+        guidance = Guidance.from_scenario(sc, sigma_0=sigma_0, prepared=prepared)
+        assert (guidance.route is prepared.initial_route) is taken

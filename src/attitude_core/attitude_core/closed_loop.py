@@ -63,8 +63,11 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
             if est is None:
                 raise RuntimeError(f"{scenario.name}: no star tracker fix at t = {t_k} s")
             sigma_m, omega_m = est.sigma_bn, est.omega_b
-        if guidance is None:  # the first estimate: the guidance starts from it
-            guidance = Guidance.from_scenario(scenario, sigma_0=sigma_m)
+        if guidance is None:  # the first estimate: the guidance starts from it, with
+            # what the planner node prepares before its first state
+            guidance = Guidance.from_scenario(
+                scenario, sigma_0=sigma_m, prepared=Guidance.prepare(scenario)
+            )
         c0 = clock()
         target = guidance.update(t_k, sigma_m, omega_m).target
         step_s[k] = clock() - c0

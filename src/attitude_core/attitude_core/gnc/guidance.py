@@ -352,13 +352,18 @@ class Guidance:
         ``routes`` may be a prepared :meth:`route_planner` of the same scenario and
         ``initial_route`` a route it planned from ``sigma_0`` (planned here otherwise).
         ``prepared`` (:meth:`prepare`) gives both: its route is taken when ``sigma_0`` is
-        the scenario's start."""
+        the scenario's start (on estimates: within the first fix's 3-sigma of it; the
+        planner node then answers its first state without planning a route)."""
         act = scenario.actuators
         fis = None if prepared is None else prepared.fis
         planner = FepfPlanner.from_scenario(scenario, sigma_0, watchdog=False, fis=fis)
         if prepared is not None:
             routes = prepared.routes
             fresh = np.allclose(planner.sigma_t, scenario.initial_mrp, rtol=0.0, atol=1e-9)
+            first_fix_deg = scenario.knowledge.first_fix_3sigma_deg  # 0: perfect knowledge
+            if not fresh and first_fix_deg > 0.0:  # an estimated start: the start within it
+                off = math.degrees(angle_between_single(planner.sigma_t, scenario.initial_mrp))
+                fresh = off <= first_fix_deg
             initial_route = prepared.initial_route if fresh else None
         sky_guide = cls.moving_sky_guide(scenario, planner.geometry.inflation_deg)
         if routes is None or routes.buffer_deg != planner.geometry.inflation_deg:

@@ -23,6 +23,9 @@ first state):
   settle to: then the bound is its 3-sigma at that time). The guidance holds the start
   until then, as flight software waits for attitude determination to converge before a
   slew: the buffer holds the settled 3-sigma, not the first fix's.
+* ``first_fix_3sigma_deg``: ``3 sqrt(sum noise^2)`` of the star tracker, the 3-sigma of the
+  filter's first estimate: a start estimated within it is the scenario's start (the
+  route planned before the first state is flown from it).
 """
 
 from __future__ import annotations
@@ -64,6 +67,7 @@ class Knowledge:
     rate_3sigma_rad_s: float = 0.0
     decision_window_s: float = 0.0
     settle_s: float = 0.0
+    first_fix_3sigma_deg: float = 0.0
 
     @property
     def perfect(self) -> bool:
@@ -81,7 +85,8 @@ def knowledge_of(spec: SensorSpec, dt_s: float) -> Knowledge:
     settle, trace = _settle(cfg, spec.star_tracker_rate_hz, SETTLED_RATIO**2 * steady)
     attitude = 3.0 * math.degrees(math.sqrt(max(trace, SETTLED_RATIO**2 * steady)))
     rate = 3.0 * math.sqrt(3.0 * spec.gyro_noise_rad_s**2 + float(np.trace(p[3:, 3:])))
-    return Knowledge(attitude, rate, DECISION_WINDOW_S, settle)
+    first = 3.0 * math.degrees(math.sqrt(sum(float(r) ** 2 for r in spec.star_tracker_noise_rad)))
+    return Knowledge(attitude, rate, DECISION_WINDOW_S, settle, first)
 
 
 def _settle(cfg: MekfConfig, rate_hz: float, limit: float) -> tuple[float, float]:
