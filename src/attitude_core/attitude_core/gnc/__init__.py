@@ -25,4 +25,9 @@ Plain NumPy and SciPy, no ROS, no files but the packaged FIS data. Inputs and ou
   ``actuators``: a vector and a bound in; the vector clipped or scaled out.
 * ``dynamics`` (eqs. 3-4): inertia and torque in; the rigid-body state propagated
   (RK4, shadow switching) out.
+* ``sensors``: the declared star tracker and gyro and the true state in; their samples
+  (reproducible from the seed) out. ``mekf``: gyro and star tracker samples in; the
+  multiplicative EKF's attitude, bias-corrected rate, bias and covariance out.
+  ``knowledge``: the declared sensors in; the guidance's knowledge bounds (3-sigma,
+  decision window, settling time) out. ``sensing``: sensors and filter of one offline run.
 """
