@@ -97,11 +97,14 @@ def test_sigkilled_run_leaves_no_orphans_and_the_next_run_recovers(tmp_path, ros
         stages = list(tmp_path.glob(".tmp-run-out-*"))
         assert len(stages) == 1, stages
         staging = stages[0]
-        # Mid-run: the planner has begun tracking (the recorder is recording).
+        # Mid-run: the planner has declared the arrival, so hundreds of steps are in the
+        # bag, and the run records on (--settle-s 200). (Killing at its first answer left
+        # a bag with no complete step under load: the first applied torque comes a step
+        # later.)
         _wait(
-            lambda: "status tracking" in (staging / "logs" / "planner.log").read_text(),
-            120,
-            "planner tracking",
+            lambda: "status arrived" in (staging / "logs" / "planner.log").read_text(),
+            240,
+            "planner arrived",
         )
         os.killpg(run.pid, signal.SIGKILL)
         killed = time.monotonic()

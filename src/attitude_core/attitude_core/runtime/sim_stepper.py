@@ -12,7 +12,10 @@ node must do; the node only converts messages and publishes what it is told.
   re-sends the state every ``resend_period_s`` while it is missing; after
   ``torque_timeout_s`` the last torque is held for the step, at most ``max_held_steps``
   steps in a row, then the torque is stale and zero torque is applied until a
-  controller answers again.
+  controller answers again. Until the loop has answered once, the first state waits up
+  to ``startup_timeout_s`` instead: the simulator's view of the graph does not tell
+  whether the planner and the controller have matched each other yet, and under load
+  that can take longer than a step's deadline (the state is re-sent meanwhile).
 * Real time (stamps are the node's clock): :meth:`on_timer` is called every ``dt_s`` and
   steps with the latest torque held; a torque older than ``torque_stale_s`` (wall time
   since it arrived) is stale: zero torque. A torque stamped before the one applied is
@@ -176,6 +179,7 @@ class SimStepper:
         self.held_steps = 0  # lockstep: consecutive timed-out steps
         self.torque_stamp = -1  # real time: stamp of the applied torque
         self.torque_received_at: float | None = None
+        self.answered = False  # lockstep: a torque has answered a state
         self.stale = False
         self.done = False
         self.exit_code: int | None = None
@@ -262,6 +266,7 @@ class SimStepper:
         if stamp_ns != self.waiting_stamp:
             return Decision(Action.IGNORE)
         self.held_steps = 0
+        self.answered = True
         logs = self._set_stale(False)
         decision = self._advance(now, u, Action.ADVANCE)
         decision.logs[:0] = logs
@@ -279,7 +284,8 @@ class SimStepper:
     def _deadline(self, now: float) -> Decision:
         if self.waiting_stamp is None:
             return Decision(Action.NONE)
-        if now - self.first_sent_at > self.cfg.torque_timeout_s:
+        timeout = self.cfg.torque_timeout_s if self.answered else self.cfg.startup_timeout_s
+        if now - self.first_sent_at > timeout:
             self.timeouts += 1
             self.held_steps += 1
             if self.held_steps > self.cfg.max_held_steps:
@@ -291,7 +297,7 @@ class SimStepper:
                     (
                         "warning",
                         f"no torque for step {self.k} after "
-                        f"{self.cfg.torque_timeout_s} s; holding the last torque "
+                        f"{timeout} s; holding the last torque "
                         f"{self.torque.tolist()} N m",
                     )
                 ]
