@@ -374,24 +374,6 @@ def test_lockstep_no_held_steps_means_zero_at_the_first_timeout():
     assert_state(d.state, 2, 2 * DT_NS, 2 * DT_NS, ref)
 
 
-def test_lockstep_the_first_state_waits_for_the_loop_up_to_the_startup_timeout():
-    """Before any torque has come, a state is re-sent, not timed out, for up to
-    ``startup_timeout_s`` (the planner and the controller may not have matched each
-    other yet); then the step deadline applies as usual."""
-    s = make(torque_timeout_s=1.0, resend_period_s=0.2)
-    _, t = start(s)
-    startup = s.cfg.startup_timeout_s
-    assert startup > 10.0
-    assert s.on_timer(t + 5.0).action is Action.RESEND  # far beyond the 1 s deadline
-    assert s.k == 0 and s.timeouts == 0
-    d = s.on_timer(t + startup + 0.01)
-    assert d.action is Action.HOLD and s.timeouts == 1 and s.k == 1
-    assert d.logs[0] == (
-        "warning",
-        f"no torque for step 0 after {startup} s; holding the last torque [0.0, 0.0, 0.0] N m",
-    )
-
-
 def test_lockstep_finish_after_exactly_n_steps():
     n = 3
     s = make(n_steps=n, resend_period_s=0.2)

@@ -398,7 +398,11 @@ def test_second_run_on_the_same_domain_is_refused_and_the_first_stays_safe(
     assert _body_margin(first) > 0.0  # whatever happened, the first body stayed safe
     if run2.returncode == 2:  # refused before anything started: the first was alone
         assert "nodes of another run are alive: /attitude_run_" in stderr2
-        assert "/fepf_planner" in stderr2 and not second.exists()
+        # named by what the 1 s check discovered: under load, not every node of the
+        # first run (seen in CI: its recorder and simulator, not yet its planner)
+        named = [n.node_name for n in node_graph.NODES if f"/{n.node_name}" in stderr2]
+        assert named, stderr2
+        assert not second.exists()
         assert run1.returncode == 0 and summary["reached"]
         assert summary["failure"] is None and summary["foreign_publishers"] == []
     else:  # the check missed it: the second run's guards stopped it at once
