@@ -22,6 +22,7 @@ setup(
     entry_points={
         'console_scripts': [
             'bag_recorder = attitude_bringup.recorder_node:main',
+            'lifecycle_manager = attitude_bringup.lifecycle_manager_node:main',
         ],
     },
 )

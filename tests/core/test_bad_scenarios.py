@@ -174,7 +174,8 @@ def ros2_run(ros_domain: int, cwd: Path, package: str, executable: str, *ros_arg
         pytest.skip("no ros2 command")
     try:
         return subprocess.run(
-            [ros2, "run", package, executable, "--ros-args", *ros_args],
+            [ros2, "run", package, executable, "--ros-args", "-p", "autostart:=true",
+             *ros_args],
             env=env, cwd=cwd, stdin=subprocess.DEVNULL, capture_output=True, text=True,
             timeout=60,
         )  # fmt: skip

@@ -72,3 +72,48 @@ def test_a_bridge_in_the_run_may_publish_every_plant_topic_the_simulator_does():
     ns = ri.run_namespace()
     for topic in (t.CLOCK, t.ATTITUDE, t.ANGULAR_VELOCITY, t.APPLIED_TORQUE):
         assert ri.foreign_publishers(topic, [E(ns, "spacecraft_bridge")], ns) == []
+
+
+def test_a_plant_adopted_by_name_may_live_in_any_namespace_and_only_it():
+    ns = "/hil"
+    bridge, stray, sim = E("/", "bsk_bridge"), E("/", "other_bridge"), E(ns, "rigid_body_sim")
+    plants = ["/bsk_bridge"]
+    for topic in (t.ATTITUDE, t.ANGULAR_VELOCITY, t.CLOCK, t.IMU, t.STAR_TRACKER):
+        assert ri.foreign_publishers(topic, [bridge], ns, plants) == []
+        assert ri.foreign_publishers(topic, [bridge, stray], ns, plants) == [stray]
+    # Named, it is the plant: another non-table node in the run's namespace is not.
+    joined = E(ns, "my_bridge")
+    assert ri.foreign_publishers(t.ATTITUDE, [bridge, joined], ns, plants) == [joined]
+    # The table's own publishers stay own (the estimator's state, the simulator's).
+    est = E(ns, "mekf_estimator")
+    assert ri.foreign_publishers(t.ATTITUDE, [est, bridge], ns, plants) == []
+    assert ri.foreign_publishers(t.ATTITUDE, [sim], ns, [f"{ns}/rigid_body_sim"]) == []
+    # Adoption gives no right beyond the plant's topics.
+    assert ri.foreign_publishers(t.TORQUE, [bridge], ns, plants) == [bridge]
+    # Without a name, a plant outside the namespace is foreign, as before.
+    assert ri.foreign_publishers(t.ATTITUDE, [bridge], ns) == [bridge]
+
+
+def test_plant_candidates_are_the_nodes_publishing_every_state_topic():
+    ns = "/attitude_run_x"
+    bridge, half, est = E("/", "bsk_bridge"), E("/", "attitude_only"), E(ns, "mekf_estimator")
+    pubs = {t.ATTITUDE: [bridge, half, est], t.ANGULAR_VELOCITY: [est, bridge]}
+    states = (t.ATTITUDE, t.ANGULAR_VELOCITY)
+    assert ri.plant_candidates(pubs, states, ns) == [bridge]
+    second = E("/bench", "bsk_bridge")
+    pubs = {t.ATTITUDE: [bridge, second], t.ANGULAR_VELOCITY: [second, bridge]}
+    assert ri.plant_candidates(pubs, states, ns) == [bridge, second]  # two: none adopted
+    assert ri.plant_candidates({t.ATTITUDE: [bridge]}, states, ns) == []
+
+
+def test_a_run_namespace_is_any_valid_namespace_but_the_root():
+    for ns in ("/hil", "/attitude_run_ab12", "/bench/hil_1", "/_x"):
+        assert ri.namespace_error(ns) is None and ri.in_run(ns)
+    for ns, part in [("/", "root"), ("", "root"), ("hil", "absolute"), ("/hil/", "token"),
+                     ("/1hil", "token"), ("/h-il", "token"), ("//hil", "token")]:  # fmt: skip
+        reason = ri.namespace_error(ns)
+        assert reason is not None and part in reason, (ns, reason)
+    assert ri.node_name_error("/bsk_bridge") is None
+    assert ri.node_name_error("/bench/bsk_bridge") is None
+    assert ri.node_name_error("bsk_bridge") is not None
+    assert ri.node_name_error("/bsk-bridge") is not None

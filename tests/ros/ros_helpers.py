@@ -44,16 +44,18 @@ def run_with_bridge(
     run_args: tuple[str, ...] = (),
     bridge_params: tuple[str, ...] = (),
     timeout_s: float = 600.0,
+    join: bool = True,
 ) -> tuple[subprocess.CompletedProcess[str], int]:
     """``attitude-run --plant external`` on ``scenario`` against :func:`start_bridge`; the
-    bridge outlives the run and is stopped (SIGINT) after it, as a user would. Returns
-    the run (return code, stdout, stderr) and the bridge's return code."""
+    bridge outlives the run and is stopped (SIGINT) after it, as a user would. ``join``:
+    the bridge joins the run's namespace (else it stays in the root: ``run_args`` say
+    how the run adopts it). Returns the run (return code, stdout, stderr) and the
+    bridge's return code."""
     from attitude_core.runtime.run_identity import run_namespace
 
-    namespace = run_namespace()  # the bridge joins the run
-    args = _attitude_run_args(
-        scenario, out, ("--plant", "external", "--run-namespace", namespace, *run_args)
-    )
+    namespace = run_namespace() if join else "/"
+    joined = ("--run-namespace", namespace) if join else ()
+    args = _attitude_run_args(scenario, out, ("--plant", "external", *joined, *run_args))
     run = subprocess.Popen(args, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     bridge = start_bridge(scenario, env, log, *bridge_params, namespace=namespace)
     try:

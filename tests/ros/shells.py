@@ -55,7 +55,8 @@ class RosSession:
     def init(self, params_file: Path | str = CASE1, **overrides) -> None:
         """``rclpy.init`` with ``--params-file params_file`` and ``-p key:=value`` overrides
         (keyword names use ``__`` for the dots: ``lockstep__resend_period_s=0.05``)."""
-        args = ["--ros-args", "--params-file", str(params_file)]
+        # Managed nodes configure and activate themselves (autostart) in these tests.
+        args = ["--ros-args", "--params-file", str(params_file), "-p", "autostart:=true"]
         for key, value in overrides.items():
             args += ["-p", f"{key.replace('__', '.')}:={value!r}"]
         rclpy.init(args=args, domain_id=self.domain_id)

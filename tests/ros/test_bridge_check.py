@@ -135,6 +135,25 @@ def results(rec) -> dict:
     return {r.point: r for r in checker.judge(rec)}
 
 
+def test_plant_point_names_the_node_a_run_adopts():
+    checks_process = importlib.import_module("attitude_conformance.checks_process")
+    TopicQos = checks_process.TopicQos
+
+    def graph(att, rate):
+        e = lambda n: (n, "RELIABLE", "VOLATILE")
+        return [TopicQos("/spacecraft/attitude", "publisher", True, 1, [], [e(n) for n in att]),
+                TopicQos("/spacecraft/angular_velocity", "publisher", True, 1, [],
+                         [e(n) for n in rate])]  # fmt: skip
+
+    one = checks_process.check_plant(graph(["/b"], ["/b"]))
+    assert one.status == "PASS" and "--plant-node /b" in one.detail
+    two = checks_process.check_plant(graph(["/b", "/x/b"], ["/x/b", "/b"]))
+    assert two.status == "FAIL" and "/b, /x/b" in two.detail
+    split = checks_process.check_plant(graph(["/att"], ["/rate"]))
+    assert split.status == "SKIP" and "--plant-node /att --plant-node /rate" in split.detail
+    assert checks_process.check_plant(graph([], ["/b"])).status == "SKIP"
+
+
 def synthetic(mode: str, fault: str | None = None) -> dict:
     return results(SyntheticBridge(mode, fault).run())
 

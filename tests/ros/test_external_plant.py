@@ -51,7 +51,10 @@ def test_attitude_run_against_the_example_bridge(mode, case, tmp_path, ros_env):
     summary = json.loads((out / "summary.json").read_text())
     assert summary["plant"] == "external" and summary["time_mode"] == mode
     assert summary["end_reason"] == "planner finished" and summary["failure"] is None
-    assert set(summary["exit_codes"]) == {"recorder", "planner", "controller"}
+    assert set(summary["exit_codes"]) == {"recorder", "planner", "controller", "manager"}
+    # Joined the run's namespace, the bridge is the single node publishing the state.
+    assert summary["plant_node"] == summary["run_namespace"] + "/spacecraft_bridge"
+    assert summary["plant_adopted"] is True
     assert summary["reached"] and summary["min_margin_deg"] > 0.0
 
     bag_run = run_from_bag(str(out / "bag"))
@@ -100,3 +103,94 @@ def test_no_external_plant_fails_clearly_and_keeps_the_logs(tmp_path, ros_env):
     recorder_log = (out / "logs" / "recorder.log").read_text()
     assert "no state on /spacecraft/attitude after 3.0 s" in recorder_log
     assert not (out / "logs" / "simulator.log").exists()  # no simulator was started
+
+
+BRIDGE = "/spacecraft_bridge"
+
+
+def _check_bag(out: Path, scenario_path: Path, summary: dict) -> None:
+    """The recorded body, densely, outside every cone; arrival in the bag."""
+    bag_run = run_from_bag(str(out / "bag"))
+    rec, sc = bag_run.run, load_scenario(scenario_path)
+    margin, _ = dense_min_margin_deg(sc.cone_geometry(), rec.t, rec.sigma_bn, rec.omega_b)
+    assert margin == pytest.approx(summary["min_margin_deg"]) and margin > 0.0
+    assert PlannerStatus.ARRIVED.code in set(rec.planner_status.tolist())
+
+
+def test_a_bridge_in_the_root_namespace_is_adopted_by_name_in_real_time(tmp_path, ros_env):
+    """The bridge stays where its launch put it (the root); ``--plant-node`` names it."""
+    scenario_path = ROOT / "scenarios" / "case2.yaml"
+    out = tmp_path / "run"
+    run, bridge_code = run_with_bridge(
+        scenario_path, out, ros_env(ros_environment()), tmp_path / "bridge.log",
+        run_args=("--mode", "realtime", "--settle-s", str(SETTLE_S), "--plant-node", BRIDGE),
+        bridge_params=("time_mode:=realtime",), timeout_s=400, join=False,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert bridge_code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["plant_node"] == BRIDGE and summary["plant_nodes"] == [BRIDGE]
+    assert summary["plant_adopted"] is False and summary["foreign_publishers"] == []
+    assert f"attitude-run: plant named: {BRIDGE}" in run.stderr
+    assert summary["time_mode"] == "realtime" and summary["reached"]
+    _check_bag(out, scenario_path, summary)
+
+
+def test_without_a_name_the_single_state_publisher_is_adopted(tmp_path, ros_env):
+    """Lockstep, the bridge in the root namespace, the run in ``/hil`` (any namespace)."""
+    scenario_path = ROOT / "scenarios" / "case1.yaml"
+    out = tmp_path / "run"
+    run, bridge_code = run_with_bridge(
+        scenario_path, out, ros_env(ros_environment()), tmp_path / "bridge.log",
+        run_args=("--mode", "lockstep", "--settle-s", str(SETTLE_S), "--run-namespace", "/hil"),
+        timeout_s=400, join=False,
+    )  # fmt: skip
+    assert run.returncode == 0, run.stdout + run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["run_namespace"] == "/hil"
+    assert summary["plant_node"] == BRIDGE and summary["plant_adopted"] is True
+    assert f"attitude-run: plant adopted: {BRIDGE}" in run.stderr
+    _check_bag(out, scenario_path, summary)
+
+
+def test_a_second_plant_beside_the_named_one_is_refused_and_named(tmp_path, ros_env):
+    from ros_helpers import start_bridge
+
+    scenario_path = ROOT / "scenarios" / "case1.yaml"
+    env = ros_env(ros_environment())
+    stray = start_bridge(scenario_path, env, tmp_path / "stray.log", namespace="/bench")
+    try:
+        out = tmp_path / "run"
+        run, _ = run_with_bridge(
+            scenario_path, out, env, tmp_path / "bridge.log",
+            run_args=("--plant-node", BRIDGE, "--plant-timeout-s", "60"), timeout_s=300,
+            join=False,
+        )  # fmt: skip
+    finally:
+        stray.send_signal(2)
+        stray.wait(30)
+    assert run.returncode == 1, run.stdout + run.stderr
+    summary = json.loads((out / "summary.json").read_text())
+    assert "foreign publisher" in summary["failure"]
+    assert "/bench/spacecraft_bridge" in summary["failure"]
+    assert not summary["reached"]
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("--run-namespace", "/"), "root namespace"),
+        (("--run-namespace", "hil"), "absolute"),
+        (("--plant", "external", "--plant-node", "bsk_bridge"), "fully qualified"),
+        (("--plant-node", "/bsk_bridge"), "needs --plant external"),
+    ],
+)
+def test_bad_namespaces_and_plant_names_are_refused_before_anything_starts(tmp_path, args, message):
+    out = tmp_path / "never"
+    proc = subprocess.run(
+        [str(BIN / "attitude-run"), str(ROOT / "scenarios" / "case1.yaml"), "--out", str(out),
+         *args],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert proc.returncode == 2 and message in proc.stderr, proc.stderr
+    assert not out.exists()

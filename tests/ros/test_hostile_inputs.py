@@ -277,7 +277,7 @@ def _ros2_run(env: dict[str, str], log: Path, package: str, executable: str, *ar
     assert ros2 is not None
     with open(log, "wb") as out:
         return subprocess.Popen(
-            [ros2, "run", package, executable, "--ros-args", *args],
+            [ros2, "run", package, executable, "--ros-args", "-p", "autostart:=true", *args],
             env=env, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
         )  # fmt: skip
 

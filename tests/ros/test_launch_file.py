@@ -46,13 +46,17 @@ STAND_INS = {
     'launch': ['LaunchDescription'],
     'launch.actions': [
         'DeclareLaunchArgument',
+        'EmitEvent',
         'OpaqueFunction',
         'RegisterEventHandler',
         'Shutdown',
     ],
     'launch.event_handlers': ['OnProcessExit'],
+    'launch.events': ['matches_action'],
     'launch.substitutions': ['LaunchConfiguration'],
-    'launch_ros.actions': ['Node'],
+    'launch_ros.actions': ['LifecycleNode'],
+    'launch_ros.event_handlers': ['OnStateTransition'],
+    'launch_ros.events.lifecycle': ['ChangeState'],
     'launch_ros.parameter_descriptions': ['ParameterValue'],
 }
 
@@ -60,7 +64,7 @@ STAND_INS = {
 @pytest.fixture(scope='module')
 def description():
     """The LaunchDescription stand-in returned by generate_launch_description()."""
-    saved = {m: sys.modules.get(m) for m in [*STAND_INS, 'launch_ros']}
+    saved = {m: sys.modules.get(m) for m in [*STAND_INS, 'launch_ros', 'launch_ros.events']}
     classes = {}
     try:
         for module_name, names in STAND_INS.items():
@@ -70,6 +74,7 @@ def description():
                 setattr(module, name, classes[name])
             sys.modules[module_name] = module
         sys.modules.setdefault('launch_ros', types.ModuleType('launch_ros'))
+        sys.modules.setdefault('launch_ros.events', types.ModuleType('launch_ros.events'))
         spec = importlib.util.spec_from_file_location('scenario_launch', LAUNCH)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
@@ -120,7 +125,7 @@ def _configuration(value):
 
 @pytest.fixture(scope='module')
 def nodes(description):
-    return {n.kwargs['executable']: n for n in _entities(description, 'Node')}
+    return {n.kwargs['executable']: n for n in _entities(description, 'LifecycleNode')}
 
 
 def test_usage_in_docstring():
@@ -142,10 +147,10 @@ def test_launch_arguments(description):
 def test_starts_the_node_graph_in_order_on_screen(description):
     started = [
         (n.kwargs['package'], n.kwargs['executable'], n.kwargs['name'])
-        for n in _entities(description, 'Node')
+        for n in _entities(description, 'LifecycleNode')
     ]
     assert started == [(s.package, s.executable, s.node_name) for s in node_graph.NODES]
-    for n in _entities(description, 'Node'):
+    for n in _entities(description, 'LifecycleNode'):
         assert n.kwargs['output'] == 'screen'
 
 
@@ -159,9 +164,9 @@ def _console_scripts(pkg):
 
 
 def test_a_scenario_with_sensors_starts_the_estimator(description):
-    started = [n.kwargs['executable'] for n in _entities(description, 'Node', SENSING)]
+    started = [n.kwargs['executable'] for n in _entities(description, 'LifecycleNode', SENSING)]
     assert started == [s.executable for s in node_graph.SENSING_NODES]
-    nodes = {n.kwargs['executable']: n for n in _entities(description, 'Node', SENSING)}
+    nodes = {n.kwargs['executable']: n for n in _entities(description, 'LifecycleNode', SENSING)}
     files, _ = _parameters(nodes[node_graph.ESTIMATOR.executable])
     assert files == ['scenario']
     _, sim = _parameters(nodes[node_graph.SIMULATOR.executable])
@@ -212,8 +217,56 @@ def test_node_parameters(nodes):
         assert set(values) <= own[exe], exe  # only parameters the node declares
 
 
+def _transition(emit):
+    """(the node an EmitEvent(ChangeState) targets, its transition id)."""
+    assert type(emit).__name__ == 'EmitEvent'
+    change = emit.kwargs['event']
+    assert type(change).__name__ == 'ChangeState'
+    matcher = change.kwargs['lifecycle_node_matcher']
+    assert type(matcher).__name__ == 'matches_action'
+    return matcher.args[0], change.kwargs['transition_id']
+
+
+@pytest.mark.parametrize('scenario', [CASE1, SENSING], ids=['case1', 'sensors'])
+def test_managed_nodes_are_configured_then_activated_in_table_order(description, scenario):
+    """Walk the launch's lifecycle events as launch_ros would fire them: each node's
+    configure and activate, one at a time, in the node table's order."""
+    from lifecycle_msgs.msg import Transition
+
+    nodes = _entities(description, 'LifecycleNode', scenario)
+    for n in nodes:
+        assert n.kwargs['namespace'] == ''  # managed nodes need one (root, as by hand)
+    handlers = {}
+    for h in _entities(description, 'RegisterEventHandler', scenario):
+        (event,) = h.args
+        if type(event).__name__ == 'OnStateTransition':
+            key = (id(event.kwargs['target_lifecycle_node']), event.kwargs['start_state'],
+                   event.kwargs['goal_state'])  # fmt: skip
+            assert key not in handlers
+            (handlers[key],) = event.kwargs['entities']
+    (first,) = _entities(description, 'EmitEvent', scenario)  # at launch
+    pending, done = [_transition(first)], []
+    ends = {Transition.TRANSITION_CONFIGURE: ('configuring', 'inactive'),
+            Transition.TRANSITION_ACTIVATE: ('activating', 'active')}  # fmt: skip
+    while pending:
+        node, transition = pending.pop()
+        done.append((node.kwargs['executable'], transition))
+        follow = handlers.get((id(node), *ends[transition]))
+        if follow is not None:
+            pending.append(_transition(follow))
+    order = [n.kwargs['executable'] for n in nodes]
+    assert done == [(e, Transition.TRANSITION_CONFIGURE) for e in order] + [
+        (e, Transition.TRANSITION_ACTIVATE) for e in order
+    ]
+
+
 def test_shutdown_when_the_simulator_exits(description, nodes):
-    (handler,) = _entities(description, 'RegisterEventHandler')
+    handlers = [
+        h
+        for h in _entities(description, 'RegisterEventHandler')
+        if type(h.args[0]).__name__ == 'OnProcessExit'
+    ]
+    (handler,) = handlers
     (on_exit,) = handler.args
     assert type(on_exit).__name__ == 'OnProcessExit'
     assert on_exit.kwargs['target_action'] is nodes[node_graph.SIMULATOR.executable]

@@ -253,7 +253,9 @@ def test_nodes_accept_an_injected_context(ros, scenario):
     ros.init(CASE1)
     ctx = rclpy.Context()
     rclpy.init(
-        context=ctx, args=["--ros-args", "--params-file", str(CASE1)], domain_id=ros.domain_id
+        context=ctx,
+        args=["--ros-args", "--params-file", str(CASE1), "-p", "autostart:=true"],
+        domain_id=ros.domain_id,
     )
     try:
         for node_class in NODE_CLASSES.values():

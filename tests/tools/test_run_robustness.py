@@ -150,7 +150,7 @@ def test_node_stops_when_the_process_named_by_its_owner_variable_dies(tmp_path, 
     with open(log, "wb") as f:
         node = subprocess.Popen(
             [ros2, "run", "attitude_controller", "pd_controller", "--ros-args",
-             "--params-file", str(CASE1)],
+             "-p", "autostart:=true", "--params-file", str(CASE1)],
             env=env, stdout=f, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
         )  # fmt: skip
     try:

@@ -7,11 +7,10 @@ down instead of losing messages. Log times follow the run's timeline
 (:mod:`attitude_bringup.timeline`: stamps, unstamped and implausibly stamped messages,
 ``custom_data.recorder_bad_stamps``); the receive wall time is the publish time.
 
-The writer finishes its chunk every 0.25 s of wall time, so a recorder killed at any
-moment loses at most that much (``attitude-bag-recover`` finishes the bag). A failed
-write stops the recording: the recorder exits ``EXIT_DISK_FULL`` (4) or
-``EXIT_WRITE_FAILED`` (5), leaving the bag for recovery. The bag is finished on every
-way out (end, SIGINT, SIGTERM).
+Managed: it records while active; ``deactivate`` flushes. The writer finishes its chunk
+every 0.25 s of wall time, so a recorder killed at any moment loses at most that much
+(``attitude-bag-recover`` finishes the bag). A failed write stops the recording: exit
+``EXIT_DISK_FULL`` (4) or ``EXIT_WRITE_FAILED`` (5). The bag is finished on every way out.
 
 Parameters (:data:`attitude_core.config.node_parameters.RECORDER`): ``output_dir``;
 ``stop_on_planner_status`` (read from the stamped ``/diagnostics``, so the stop is
@@ -51,8 +50,9 @@ from .timeline import Timeline, open_bag, scenario_attachment
 
 
 class BagRecorderNode(StackNode):
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.RECORDER, **kwargs)
+    spec = node_graph.RECORDER
+
+    def configure(self) -> None:
         own, _ = declare_node_parameters(self, node_graph.RECORDER.parameters)
         source = f"node '{self.get_fully_qualified_name()}' parameters"
         self.output_dir = own.output_dir
@@ -77,20 +77,19 @@ class BagRecorderNode(StackNode):
         self.create_timer(0.1, self.check_outcome)
         # Foreign publishers on any contract topic are logged and counted (attitude-run
         # names them in the summary); the recorder records on.
-        last_stamp = lambda: self.timeline.last_stamp_ns or 0
-        self.guard = RunGuard(self, self.spec, scenario, lambda *_: None, last_stamp, stops=False)
+        stamp = lambda: self.timeline.last_stamp_ns or 0
+        self.guard = RunGuard(self, self.spec, scenario, lambda *_: None, stamp, stops=False)
         stops = sorted(s.value for s in self.stop_rule.stop_on)
-        self.get_logger().info(
-            f"recording {len(c.TOPICS)} topics to {self.output_dir}"
-            + (f"; stops on status {stops}" if stops else "")
-            + ("" if scenario is None else f"; scenario '{scenario.name}' attached")
-        )
+        attached = "" if scenario is None else f"; scenario '{scenario.name}' attached"
+        self.get_logger().info(f"recording to {self.output_dir}; stops on {stops}{attached}")
 
     def callback(self, topic: Topic) -> Any:
         watch = topic.name == c.DIAGNOSTICS and bool(self.stop_rule.stop_on)
         markers = tuple(status.value.encode() for status in self.stop_rule.stop_on)
 
         def on_message(data: bytes) -> None:
+            if not self.active:  # records while active only
+                return
             done = self.timeline.record(topic, data, time.time_ns(), time.monotonic())
             if self.write_failed():
                 return
@@ -122,16 +121,24 @@ class BagRecorderNode(StackNode):
         if err is None or self.reported:
             return err is not None
         self.reported = True
-        cause = f"disk full: {err}" if err.disk_full else f"write failed: {err}"
+        cause = "disk full" if err.disk_full else "write failed"
         self.get_logger().error(
-            f"cannot record the bag: {cause}; recording stopped, {self.writer.message_count} "
-            f"messages kept for recovery (attitude-bag-recover {self.output_dir})"
+            f"cannot record the bag: {cause}: {err}; recording stopped, "
+            f"{self.writer.message_count} messages kept for recovery "
+            f"(attitude-bag-recover {self.output_dir})"
         )
         self.stop(EXIT_DISK_FULL if err.disk_full else EXIT_WRITE_FAILED)
         return True
 
+    def activate(self) -> None:
+        self.stop_rule.started = time.monotonic()  # the plant's time starts now
+
+    def deactivate(self) -> None:
+        if not self.timeline.flush():  # what was recorded is on disk
+            self.write_failed()
+
     def check_outcome(self) -> None:
-        if self.write_failed() or self.done:
+        if self.write_failed() or self.done or not self.active:
             return
         outcome = self.stop_rule.poll(time.monotonic())
         if outcome is Outcome.NO_PLANT:
@@ -148,8 +155,7 @@ class BagRecorderNode(StackNode):
             self.done = True
 
     def drained(self) -> bool:
-        """True when nothing was written since the previous call (the runner drains the
-        subscription queues on SIGINT/SIGTERM before closing the bag)."""
+        """Nothing written since the previous call (the runner drains on SIGINT/SIGTERM)."""
         drained = self.timeline.drained()
         self.write_failed()
         return drained

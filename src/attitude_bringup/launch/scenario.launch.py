@@ -22,15 +22,32 @@ and recorder; estimator and recorder with sensors). The scenario file is read wh
 launch runs (an ``OpaqueFunction``), to choose the graph. The whole launch shuts down
 when the simulator exits (end of the simulated time, or an error).
 
+The nodes are managed (``launch_ros.actions.LifecycleNode``) and brought up with
+launch_ros's lifecycle events in the node table's order, as ``attitude-run``'s manager
+does: the first node is configured at once; each node reaching ``inactive`` has the
+next configured, the last one has the first activated; each node reaching ``active``
+has the next activated. A node whose configure fails (a bad scenario) exits 2 and the
+bring-up stops there.
+
 Machines without ROS 2's launch (pip wheels only) run the same nodes with ``attitude-run``.
 """
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, OpaqueFunction, RegisterEventHandler, Shutdown
+from launch.actions import (
+    DeclareLaunchArgument,
+    EmitEvent,
+    OpaqueFunction,
+    RegisterEventHandler,
+    Shutdown,
+)
 from launch.event_handlers import OnProcessExit
+from launch.events import matches_action
 from launch.substitutions import LaunchConfiguration
-from launch_ros.actions import Node
+from launch_ros.actions import LifecycleNode
+from launch_ros.event_handlers import OnStateTransition
+from launch_ros.events.lifecycle import ChangeState
 from launch_ros.parameter_descriptions import ParameterValue
+from lifecycle_msgs.msg import Transition
 
 from attitude_core.config.scenario import load_scenario
 from attitude_core.contract import node_graph as graph
@@ -60,15 +77,17 @@ def _nodes(context):
     nodes = {}
     for spec in run_graph.nodes:
         files = [scenario] if spec.parameters.scenario is not None else []
-        nodes[spec.role] = Node(
+        nodes[spec.role] = LifecycleNode(
             package=spec.package,
             executable=spec.executable,
             name=spec.node_name,
+            namespace='',
             parameters=files + [own_parameters.get(spec.role, {})],
             output='screen',
         )
     return [
         *nodes.values(),
+        *_bring_up(list(nodes.values())),
         RegisterEventHandler(
             OnProcessExit(
                 target_action=nodes[graph.SIMULATOR.role],
@@ -76,6 +95,36 @@ def _nodes(context):
             )
         ),
     ]
+
+
+def _change(node, transition_id):
+    return EmitEvent(
+        event=ChangeState(lifecycle_node_matcher=matches_action(node), transition_id=transition_id)
+    )
+
+
+def _when(node, start_state, goal_state, action):
+    """``action`` when ``node`` ends a transition (only that one: a later deactivation
+    does not configure or activate anything)."""
+    return RegisterEventHandler(
+        OnStateTransition(
+            target_lifecycle_node=node,
+            start_state=start_state,
+            goal_state=goal_state,
+            entities=[action],
+        )
+    )
+
+
+def _bring_up(order):
+    """Configure in order, then activate in order (one node at a time)."""
+    configure, activate = Transition.TRANSITION_CONFIGURE, Transition.TRANSITION_ACTIVATE
+    actions = [_change(order[0], configure)]
+    for node, following in zip(order, order[1:], strict=False):
+        actions.append(_when(node, 'configuring', 'inactive', _change(following, configure)))
+        actions.append(_when(node, 'activating', 'active', _change(following, activate)))
+    actions.append(_when(order[-1], 'configuring', 'inactive', _change(order[0], activate)))
+    return actions
 
 
 def generate_launch_description():

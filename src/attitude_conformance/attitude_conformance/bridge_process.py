@@ -20,10 +20,13 @@ from .checks_process import SIGINT_GRACE_S
 
 
 def bridge_command(launch: str, scenario: str, mode: str) -> list[str]:
-    """The full command line of a launched bridge."""
+    """The full command line of a launched bridge (``autostart``: a managed node, such as
+    ``rigid_body_sim``, activates itself; other nodes ignore the parameter)."""
     return [
         *shlex.split(launch),
         "--ros-args",
+        "-p",
+        "autostart:=true",
         "--params-file",
         scenario,
         "-p",

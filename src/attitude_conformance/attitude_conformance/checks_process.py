@@ -1,4 +1,5 @@
-"""Checks of the connection and the process: ``qos`` and ``sigint``, from plain data."""
+"""Checks of the connection and the process: ``qos``, ``plant`` and ``sigint``, from plain
+data."""
 
 from __future__ import annotations
 
@@ -59,6 +60,33 @@ def check_qos(topics: list[TopicQos], domain: str = "") -> Result:
             )
     names = ", ".join(t.topic for t in topics if t.matched)
     return Result("qos", PASS, f"reliable, volatile endpoints matched on {names}")
+
+
+def check_plant(topics: list[TopicQos]) -> Result:
+    """The node ``attitude-run --plant external`` would adopt: the single node publishing
+    both state topics (any namespace). Two such nodes is a failure (a run adopts none);
+    a state split over several nodes needs each named (``--plant-node``): SKIP."""
+    publishers = {t.topic: {e[0] for e in t.endpoints} for t in topics if t.topic in STATE_TOPICS}
+    if set(publishers) != set(STATE_TOPICS) or not all(publishers.values()):
+        return Result("plant", SKIP, "no publisher of both state topics in the graph")
+    both = sorted(set.intersection(*publishers.values()))
+    if len(both) == 1:
+        return Result(
+            "plant",
+            PASS,
+            f"{both[0]} publishes both state topics: attitude-run --plant external adopts "
+            f"it (or names it: --plant-node {both[0]})",
+        )
+    if len(both) > 1:
+        return Result(
+            "plant",
+            FAIL,
+            f"{len(both)} nodes publish both state topics ({', '.join(both)}): a run adopts "
+            "none of them; stop the strays or name the plant with --plant-node",
+        )
+    split = sorted(set.union(*publishers.values()))
+    flags = " ".join(f"--plant-node {n}" for n in split)
+    return Result("plant", SKIP, f"the state is split over {', '.join(split)}: run with {flags}")
 
 
 def _override_hint(topic: str) -> str:

@@ -75,7 +75,11 @@ class QosProbe:
                     matched,
                     self.incompatible.get(name, []),
                     [
-                        (i.node_name, i.qos_profile.reliability.name, i.qos_profile.durability.name)
+                        (
+                            i.node_namespace.rstrip("/") + "/" + i.node_name,
+                            i.qos_profile.reliability.name,
+                            i.qos_profile.durability.name,
+                        )
                         for i in infos
                         if i.node_name != me
                     ],

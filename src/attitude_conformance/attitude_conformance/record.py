@@ -19,6 +19,7 @@ from attitude_core.contract.time_mode import TimeMode
 PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
 POINTS = (
     "qos",
+    "plant",
     "stamps",
     "clock",
     "frames",

@@ -9,7 +9,7 @@ import sys
 
 from .bridge_process import BridgeProcess
 from .checker import judge
-from .checks_process import TopicQos, check_qos, check_sigint
+from .checks_process import TopicQos, check_plant, check_qos, check_sigint
 from .record import FAIL, Recording, Result, summary
 
 NO_STATE_HINT = (
@@ -42,7 +42,7 @@ def report(
     exited = bridge is not None and bridge.exited() is not None
     if not rec.attitude and rec.aborted and not incompatible and not exited:
         rec.aborted += NO_STATE_HINT
-    results = [check_qos(topics, os.environ.get("ROS_DOMAIN_ID", "0"))]
+    results = [check_qos(topics, os.environ.get("ROS_DOMAIN_ID", "0")), check_plant(topics)]
     results += judge(rec)
     results.append(_sigint(bridge))
     for r in results:

@@ -17,7 +17,6 @@ lockstep run nor breaks a constraint.
 from __future__ import annotations
 
 import random
-from typing import Any
 
 from geometry_msgs.msg import WrenchStamped
 
@@ -42,8 +41,9 @@ from attitude_ros.runner import run
 
 
 class PdControllerNode(StackNode):
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.CONTROLLER, **kwargs)
+    spec = node_graph.CONTROLLER
+
+    def configure(self) -> None:
         own, self.scenario = declare_scenario_node(self, node_graph.CONTROLLER.parameters)
         self.drop_fraction = own.fault.drop_torque_fraction
         self.rng = random.Random(own.fault.seed)
@@ -83,11 +83,21 @@ class PdControllerNode(StackNode):
         sigma_bn, omega_b, sigma_t, omega_t = inputs
         limit = self.scenario.actuators.max_torque_nm
         u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
+        u = u if self.active else 0.0 * u
         out = message(c.TORQUE)
         out.header.stamp = stamp_msg
         set_vector3(out.wrench.torque, u)
         self.publish(out)
         self.last_stamp, self.last_torque = stamp, out
+
+    @property
+    def takes_input(self) -> bool:
+        """Active, or deactivated after a run began: then every state gets zero torque
+        (a safe stop the plant applies at once, in both time modes)."""
+        return self.active or self.last_stamp is not None
+
+    def deactivate(self) -> None:
+        self.get_logger().info("deactivated: zero torque from now on")
 
     def publish(self, out: WrenchStamped) -> None:
         if self.drop_fraction and self.rng.random() < self.drop_fraction:

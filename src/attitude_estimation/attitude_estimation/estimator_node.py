@@ -45,8 +45,9 @@ POLL_PERIOD_S = 0.02  # the wait for a due star tracker sample is checked this o
 
 
 class MekfEstimatorNode(StackNode):
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.ESTIMATOR, **kwargs)
+    spec = node_graph.ESTIMATOR
+
+    def configure(self) -> None:
         own, sc = declare_scenario_node(self, node_graph.ESTIMATOR.parameters)
         if sc.sensors is None:
             raise ValueError(
@@ -87,7 +88,7 @@ class MekfEstimatorNode(StackNode):
         return int(cv.stamp_ns(stamp))
 
     def on_imu(self, msg: Any) -> None:
-        if not self.guard.admit(c.IMU):
+        if not self.active or not self.guard.admit(c.IMU):
             return
         gyro = cv.vector3(msg.angular_velocity)
         reason = cv.bad_frame(msg, c.IMU) or implausible_rate(gyro, "gyro rate")
@@ -100,7 +101,7 @@ class MekfEstimatorNode(StackNode):
             self.publish(self.stepper.on_gyro(time.monotonic(), stamp, gyro))
 
     def on_star_tracker(self, msg: Any) -> None:
-        if not self.guard.admit(c.STAR_TRACKER):
+        if not self.active or not self.guard.admit(c.STAR_TRACKER):
             return
         q = msg.pose.pose.orientation
         reason = cv.bad_frame(msg, c.STAR_TRACKER) or cv.bad_quaternion(q)
@@ -118,7 +119,7 @@ class MekfEstimatorNode(StackNode):
         self.publish(self.stepper.on_star_tracker(time.monotonic(), stamp, quat))
 
     def on_timer(self) -> None:
-        self.publish(self.stepper.poll(time.monotonic()))
+        self.publish(self.stepper.poll(time.monotonic()) if self.active else [])
 
     def publish(self, estimates: list[StampedEstimate]) -> None:
         for s in estimates:

@@ -51,8 +51,9 @@ from attitude_ros.runner import run
 
 
 class FepfPlannerNode(StackNode):
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.PLANNER, **kwargs)
+    spec = node_graph.PLANNER
+
+    def configure(self) -> None:
         _, sc = declare_scenario_node(self, node_graph.PLANNER.parameters)
         self.scenario, self.sky = sc, sc.sky
         self.prepared = Guidance.prepare(sc)  # before the first state, once
@@ -101,8 +102,20 @@ class FepfPlannerNode(StackNode):
             log.error(f"infeasible: {route.reason}")
         return guidance
 
+    @property
+    def takes_input(self) -> bool:
+        """Active, or deactivated after its first target: it then holds that target."""
+        return self.active or self.guidance is not None
+
     def answer(self, stamp: int, stamp_msg: Any, state: tuple[Any, ...]) -> None:
         sigma_bn, omega_b = state
+        if not self.active:  # deactivated: the last target held, at rest (a safe stop)
+            self.out_mrp.header.stamp = self.out_rate.header.stamp = stamp_msg
+            set_vector3(self.out_rate.vector, (0.0, 0.0, 0.0))
+            if self.out_diag is not None:
+                self.out_diag.header.stamp = stamp_msg
+            self.publish()
+            return
         if self.guidance is None:
             self.guidance = self.start(stamp, sigma_bn)
         t0 = time.perf_counter()

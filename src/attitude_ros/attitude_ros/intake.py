@@ -93,8 +93,8 @@ def _callback(
     on_repeat: Callable[[], None],
 ) -> Callable[[Any], None]:
     def on_message(msg: Any) -> None:
-        if not guard.admit(name):
-            return
+        if not node.takes_input or not guard.admit(name):
+            return  # inactive (a managed node), or a foreign writer
         value, reason = None, bad_frame(msg, name)
         if reason is None:
             value, reason = convert(msg)

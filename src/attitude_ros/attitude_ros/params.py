@@ -32,6 +32,7 @@ P = TypeVar("P")
 
 __all__ = [
     "descriptor",
+    "declare_rows",
     "declare_node_parameters",
     "declare_scenario_node",
     "plain_value",
@@ -91,6 +92,18 @@ def _declare(
         return None
     except Exception as exc:  # rclpy: InvalidParameterTypeException, ...ValueException
         raise error(source, row.key, f"{type(exc).__name__}: {exc}") from exc
+
+
+def declare_rows(node: Node, table: NodeParameters[P]) -> P:
+    """Declare only ``table``'s own rows on ``node`` (the other parameters are the
+    node's own table's to judge); their values as ``table.values``."""
+    source = f"node '{node.get_fully_qualified_name()}' parameters"
+    given: dict[str, Any] = {}
+    for row in table.own:
+        value = _declare(node, row, source, NodeParameterError, with_default=True)
+        if value is not None:
+            given[row.key] = value
+    return table.own_values(given, source)
 
 
 def declare_node_parameters(node: Node, table: NodeParameters[P]) -> tuple[P, Scenario | None]:

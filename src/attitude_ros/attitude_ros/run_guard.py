@@ -141,6 +141,10 @@ class RunGuard:
 
     def audit(self) -> None:
         now = time.monotonic()
+        plants = self.plant_nodes()
+        # In a run, before activation and with no plant named yet, a plant outside the
+        # namespace is not judged: the lifecycle manager adopts one first.
+        adopting = self.strict and not plants and not getattr(self.node, "active", True)
         for topic in self.inputs:
             infos = self.node.get_publishers_info_by_topic(topic)
             self._counts[topic] = len(infos)
@@ -155,10 +159,19 @@ class RunGuard:
                 endpoints.append(ri.Endpoint(info.node_namespace, info.node_name))
             if not pending:
                 self._unknown_since.pop(topic, None)
-            for endpoint in ri.foreign_publishers(topic, endpoints, self.namespace):
-                self._found(topic, endpoint, now)
+            for endpoint in ri.foreign_publishers(topic, endpoints, self.namespace, plants):
+                if adopting and topic in ri.PLANT_TOPICS:
+                    continue  # the manager names the plant before it activates the node
+                self._found(topic, endpoint, now, plants)
 
-    def _found(self, topic: str, endpoint: ri.Endpoint, now: float) -> None:
+    def plant_nodes(self) -> tuple[str, ...]:
+        """The adopted plant's nodes (the node's ``plant_nodes`` parameter)."""
+        get = getattr(self.node, "plant_nodes", None)
+        return tuple(get()) if get is not None else ()
+
+    def _found(
+        self, topic: str, endpoint: ri.Endpoint, now: float, plants: tuple[str, ...] = ()
+    ) -> None:
         key = (topic, endpoint)
         if key in self.foreign:
             return
@@ -167,9 +180,12 @@ class RunGuard:
             where = "this run's namespace, not a publisher of this topic"
         else:
             where = "another run" if ri.in_run(endpoint.namespace) else "no run"
+        adopted = (
+            f"; adopted plant {', '.join(plants)}" if topic in ri.PLANT_TOPICS and plants else ""
+        )
         text = (
             f"foreign publisher {endpoint.node} ({where}) on {topic}, which this node "
-            f"takes; run namespace {self.namespace}"
+            f"takes; run namespace {self.namespace}{adopted}"
         )
         self.log.error(text)
         if self.strict:

@@ -96,25 +96,35 @@ def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
         executor.add_node(node)
         watchdog = OwnerWatchdog()
         while not stop and rclpy_ok() and not getattr(node, "done", False):
-            executor.spin_once(timeout_sec=0.1)
+            try:
+                executor.spin_once(timeout_sec=0.1)
+            except (KeyboardInterrupt, ExternalShutdownException):
+                raise
+            except Exception as exc:  # a callback failed: ErrorProcessing, reported
+                fail = getattr(node, "fail", None)
+                if fail is None:
+                    raise
+                fail(exc)
             if watchdog.owner_gone():
                 stop.append(signal.SIGTERM)
         drained = getattr(node, "drained", None)
-        if stop and drained is not None:  # take what is already queued, for up to 1.5 s
+        shut_down = getattr(node, "shutdown_requested", False)  # the lifecycle's shutdown
+        if (stop or shut_down) and drained is not None:  # what is queued, for up to 1.5 s
             deadline = time.monotonic() + 1.5
             while rclpy_ok() and time.monotonic() < deadline and not drained():
                 executor.spin_once(timeout_sec=0.05)
         code = getattr(node, "exit_code", EXIT_OK)
     except ParameterError as err:  # a scenario key or a node-own parameter
-        name = "node" if node is None else node.get_name()
-        what = "scenario" if isinstance(err, ScenarioError) else "parameter"
-        print(f"[{name}] error: {what}: {err}", file=sys.stderr, flush=True)
+        if not getattr(err, "reported", False):  # a failed configure has named it
+            name = "node" if node is None else node.get_name()
+            what = "scenario" if isinstance(err, ScenarioError) else "parameter"
+            print(f"[{name}] error: {what}: {err}", file=sys.stderr, flush=True)
         code = EXIT_BAD_INPUT
     except (KeyboardInterrupt, ExternalShutdownException):
         code = getattr(node, "exit_code", EXIT_OK)
     finally:
-        if node is not None:
-            close = getattr(node, "close", None)
+        if node is not None:  # a managed node releases only what it configured
+            close = getattr(node, "release", None) or getattr(node, "close", None)
             if close is not None:
                 close()
                 if code == EXIT_OK:  # closing can fail too (a bag finished on a full disk)

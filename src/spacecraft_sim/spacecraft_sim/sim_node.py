@@ -18,7 +18,6 @@ one draw per step, re-sent unchanged.
 from __future__ import annotations
 
 import time
-from typing import Any
 
 from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
@@ -40,8 +39,9 @@ LOOP_PERIOD_S = 0.02  # start-up polling and the lockstep torque-deadline check,
 
 
 class RigidBodySimNode(StackNode):
-    def __init__(self, **kwargs: Any) -> None:
-        super().__init__(node_graph.SIMULATOR, **kwargs)
+    spec = node_graph.SIMULATOR
+
+    def configure(self) -> None:
         own, sc = declare_scenario_node(self, node_graph.SIMULATOR.parameters)
         self.scenario, self.time_mode = sc, own.time_mode
         sensing = sc.sensors is not None
@@ -93,7 +93,7 @@ class RigidBodySimNode(StackNode):
         return True
 
     def on_wait_timer(self) -> None:
-        if self.done:
+        if self.done or not self.active:  # inactive: no stepping (a safe stop)
             return
         ready = self.graph_ready() and self.guard.peers_agree()
         decision = self.stepper.poll_graph(time.monotonic(), ready)
@@ -112,10 +112,11 @@ class RigidBodySimNode(StackNode):
                 self.on_step_timer()  # the first real-time step at once
 
     def on_step_timer(self) -> None:
-        self.do(self.stepper.on_timer(time.monotonic(), self.get_clock().now().nanoseconds))
+        if self.active:
+            self.do(self.stepper.on_timer(time.monotonic(), self.get_clock().now().nanoseconds))
 
     def on_torque(self, msg: WrenchStamped) -> None:
-        if not self.guard.admit(c.TORQUE):
+        if not self.active or not self.guard.admit(c.TORQUE):
             return
         stamp, u = cv.stamp_ns(msg.header.stamp), cv.vector3(msg.wrench.torque)
         decision = self.stepper.on_torque(time.monotonic(), stamp, u, msg.header.frame_id)

@@ -39,6 +39,10 @@ __all__ = [
     "RECORDER",
     "ESTIMATOR",
     "EstimatorParams",
+    "LifecycleParams",
+    "LIFECYCLE",
+    "MANAGER",
+    "ManagerParams",
 ]
 
 
@@ -103,6 +107,34 @@ class RecorderParams:
 
 
 @dataclass(frozen=True)
+class LifecycleParams:
+    """The rows every managed node of the table declares, before its own."""
+
+    autostart: bool
+    plant_nodes: tuple[str, ...]
+
+
+LIFECYCLE_ROWS = (
+    Param(
+        "autostart",
+        ParamKind.BOOL,
+        "configure and activate at start-up (nav2's convention); false: come up "
+        "unconfigured and wait for a lifecycle manager",
+        False,
+    ),
+    Param(
+        "plant_nodes",
+        ParamKind.STR_LIST,
+        "fully qualified names of the nodes adopted as the plant (any namespace): only "
+        "they, and the node table's own, may publish the plant's topics (empty: a plant "
+        "in the run's namespace); set by the lifecycle manager before activation",
+        ("",),
+        read_only=False,
+    ),
+)
+
+
+@dataclass(frozen=True)
 class NodeParameters(Generic[P]):
     """``own``: the node's own rows; ``values``: the dataclass a node reads them as
     (``params.lockstep.resend_period_s``; its fields are the rows' keys, checked here).
@@ -133,7 +165,7 @@ class NodeParameters(Generic[P]):
     def refuse_unknown(self, names: Iterable[str], source: str) -> None:
         """Refuse a name that is neither the node's own, nor a scenario key (a shared
         ``/**`` parameters file may be given to it), nor one rclpy declares by itself."""
-        own = [row.key for row in self.own]
+        own = [row.key for row in self.own + LIFECYCLE_ROWS]
         scenario = {row.key for row in scenario_keys()}
         for name in names:
             if name in own or name in scenario or is_ros_builtin(name):
@@ -317,3 +349,63 @@ RECORDER = NodeParameters(
     ),
     scenario=None,
 )
+
+LIFECYCLE = NodeParameters(values=LifecycleParams, own=LIFECYCLE_ROWS, scenario=None)
+"""Declared by every managed node (``attitude_ros.node_base.StackNode``) at construction."""
+
+
+@dataclass(frozen=True)
+class ManagerParams:
+    node_names: tuple[str, ...]
+    plant_nodes: tuple[str, ...]
+    plant_topics: tuple[str, ...]
+    plant_timeout_s: float
+    transition_timeout_s: float
+    hold: bool
+
+
+MANAGER = NodeParameters(
+    values=ManagerParams,
+    own=(
+        Param(
+            "node_names",
+            ParamKind.STR_LIST,
+            "fully qualified names of the managed nodes, in activation order",
+        ),
+        Param(
+            "plant_nodes",
+            ParamKind.STR_LIST,
+            "the plant's nodes, by fully qualified name (empty: adopt the single node that "
+            "publishes every one of plant_topics)",
+            ("",),
+        ),
+        Param(
+            "plant_topics",
+            ParamKind.STR_LIST,
+            "the state topics a plant publishes, to adopt one (empty: no plant to find)",
+            ("",),
+        ),
+        Param(
+            "plant_timeout_s",
+            ParamKind.FLOAT,
+            "wall time to wait for the plant's nodes before activation, s",
+            60.0,
+            Bounds(0.0, 3600.0),
+        ),
+        Param(
+            "transition_timeout_s",
+            ParamKind.FLOAT,
+            "wall time for each node's services, transitions and run identity, s",
+            60.0,
+            Bounds(0.1, 3600.0),
+        ),
+        Param(
+            "hold",
+            ParamKind.BOOL,
+            "stop after configure and the checks; activate on a line 'activate' on stdin",
+            False,
+        ),
+    ),
+    scenario=None,
+)
+"""The lifecycle manager's table (``attitude_bringup lifecycle_manager``)."""

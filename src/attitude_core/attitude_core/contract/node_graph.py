@@ -31,6 +31,7 @@ __all__ = [
     "Readiness",
     "readiness",
     "ESTIMATOR",
+    "MANAGER",
     "SENSING_NODES",
     "SENSING_LOOP",
     "SENSING_STOP_ORDER",
@@ -66,6 +67,7 @@ _MODULES = {
     "pd_controller": "controller_node",
     "rigid_body_sim": "sim_node",
     "mekf_estimator": "estimator_node",
+    "lifecycle_manager": "lifecycle_manager_node",
 }
 
 RECORDER = NodeSpec(
@@ -121,6 +123,19 @@ ESTIMATOR = NodeSpec(
     publishes=(t.ATTITUDE, t.ANGULAR_VELOCITY, t.DIAGNOSTICS),
     parameters=params.ESTIMATOR,
 )
+
+MANAGER = NodeSpec(
+    "manager",
+    "attitude_bringup",
+    "lifecycle_manager",
+    "lifecycle_manager",
+    subscribes=(t.DIAGNOSTICS,),  # the run identities it checks
+    publishes=(),
+    parameters=params.MANAGER,
+)
+"""The lifecycle manager ``attitude-run`` starts beside the table's nodes: it configures
+them, checks the run, activates them in :data:`NODES` order and brings them down in
+reverse (:mod:`attitude_core.runtime.bringup`). Not a managed node itself."""
 
 NODES = (RECORDER, PLANNER, CONTROLLER, SIMULATOR)
 """Start order: the recorder first (nothing is missed), the simulator last (it waits)."""

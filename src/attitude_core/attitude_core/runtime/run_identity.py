@@ -1,7 +1,8 @@
 """Which nodes belong to a run, and whether they run the same scenario (no ROS import).
 
 A run is identified by its **ROS namespace**: ``attitude-run`` starts every node of a
-run with ``-r __ns:=/attitude_run_<id>`` (:func:`run_namespace`). The topics stay
+run with ``-r __ns:=/attitude_run_<id>`` (:func:`run_namespace`; ``--run-namespace``
+takes any other but the root). The topics stay
 absolute (``/spacecraft/attitude``, ...), so the topic contract is unchanged, but the
 graph now tells whose a publisher is: an endpoint on a contract topic is the run's own
 when its node is in the run's namespace and is a node the node table lets publish that
@@ -11,6 +12,11 @@ numbers), so samples of two writers on one topic cannot be told apart; a node th
 a foreign writer on a topic it listens to therefore stops (``EXIT_FOREIGN_PUBLISHER``),
 which ends the run at once with the writer named, before the writer's first sample can
 matter (endpoint discovery precedes data).
+
+The **plant** (the simulator, or a hardware bridge in its place) may live in any
+namespace when the run adopts it by name (``plant_nodes``; ``attitude-run
+--plant-node``, or the single node publishing both state topics, :func:`plant_candidates`):
+then only it, besides the node table's own, may publish the plant's topics.
 
 Nodes started by hand (namespace ``/``) are in no run: they log and count foreign
 publishers but do not stop, since nothing distinguishes a stray twin from a restart.
@@ -26,8 +32,9 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import re
 import secrets
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -51,8 +58,12 @@ __all__ = [
     "Endpoint",
     "run_namespace",
     "in_run",
+    "namespace_error",
+    "node_name_error",
     "scenario_fingerprint",
     "foreign_publishers",
+    "plant_candidates",
+    "PLANT_TOPICS",
     "foreign_run_nodes",
 ]
 
@@ -85,35 +96,91 @@ def run_namespace() -> str:
     return "/" + RUN_NAMESPACE_PREFIX + secrets.token_hex(6)
 
 
+_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_FQN = re.compile(r"(/[A-Za-z_][A-Za-z0-9_]*)+\Z")
+
+
+def namespace_error(namespace: str) -> str | None:
+    """Why ``namespace`` cannot be a run's (ROS 2's namespace rules, and not the root,
+    where nodes started by hand live); None when it can."""
+    if namespace in ("", "/"):
+        return "the root namespace holds the nodes started by hand: give a run its own"
+    if not namespace.startswith("/"):
+        return "must be absolute (start with '/')"
+    if len(namespace) > 200:
+        return "longer than 200 characters"
+    for token in namespace[1:].split("/"):
+        if not _TOKEN.match(token):
+            return (
+                f"token {token!r}: each '/'-separated part is letters, digits and '_', "
+                "not starting with a digit (no empty part, no trailing '/')"
+            )
+    return None
+
+
+def node_name_error(name: str) -> str | None:
+    """Why ``name`` is not a fully qualified node name (``/ns/node``); None when it is."""
+    return None if _FQN.match(name) else "expected a fully qualified node name like /bsk_bridge"
+
+
 def in_run(namespace: str) -> bool:
-    """True for a run's namespace (nodes started by ``attitude-run``)."""
-    return namespace.startswith("/" + RUN_NAMESPACE_PREFIX)
+    """True for a run's namespace: any but the root (nodes started by hand)."""
+    return namespace not in ("", "/")
 
 
-_TABLE_NAMES = frozenset(n.node_name for n in node_graph.NODES)
-_PLANT_TOPICS = frozenset(node_graph.SIMULATOR.publishes) | frozenset(t.STATE_TOPICS)
+_TABLE_NAMES = frozenset(n.node_name for n in node_graph.SENSING_NODES)
+PLANT_TOPICS = frozenset(node_graph.SIMULATOR.publishes) | frozenset(t.STATE_TOPICS)
+"""The topics a plant publishes (the simulator's, or a bridge's in its place)."""
 
 
-def _may_publish(topic: str, name: str) -> bool:
-    """Whether a node called ``name`` may publish ``topic`` in a run: the node table's
-    publishers of it, and on the plant's topics a plant outside the table (a bridge)."""
-    if any(name == n.node_name and topic in n.publishes for n in node_graph.NODES):
+def _table_publishes(topic: str, name: str) -> bool:
+    return any(name == n.node_name and topic in n.publishes for n in node_graph.SENSING_NODES)
+
+
+def _own(topic: str, e: Endpoint, own_namespace: str, plant_nodes: frozenset[str]) -> bool:
+    if e.namespace == own_namespace and _table_publishes(topic, e.name):
         return True
-    return topic in _PLANT_TOPICS and name not in _TABLE_NAMES
+    if topic not in PLANT_TOPICS:
+        return False
+    if plant_nodes:  # adopted by name, in any namespace: only they
+        return e.node in plant_nodes
+    return e.namespace == own_namespace and e.name not in _TABLE_NAMES  # a bridge joined
 
 
 def foreign_publishers(
-    topic: str, endpoints: Iterable[Endpoint], own_namespace: str
+    topic: str,
+    endpoints: Iterable[Endpoint],
+    own_namespace: str,
+    plant_nodes: Iterable[str] = (),
 ) -> list[Endpoint]:
     """The publishers of ``topic`` that are not the run's own (see the module docstring).
 
-    In the root namespace (nodes started by hand) every node of the table publishing its
-    own topics counts as own, and so does any plant. On ``/diagnostics``, where every
-    node publishes its identity and other tools may report too, only the table's nodes
-    of another namespace (another run) are foreign."""
+    Own: the node table's publishers of ``topic`` in the run's namespace; on the plant's
+    topics (:data:`PLANT_TOPICS`) the adopted ``plant_nodes`` (fully qualified names, any
+    namespace) or, when none is named, a node outside the table in the run's namespace.
+    On ``/diagnostics``, where every node publishes its identity and other tools may
+    report too, only the table's nodes of another namespace (another run) are foreign."""
     if topic == t.DIAGNOSTICS:  # every node reports there; other tools may too
         return [e for e in endpoints if e.namespace != own_namespace and e.name in _TABLE_NAMES]
-    return [e for e in endpoints if e.namespace != own_namespace or not _may_publish(topic, e.name)]
+    plants = frozenset(plant_nodes)
+    return [e for e in endpoints if not _own(topic, e, own_namespace, plants)]
+
+
+def plant_candidates(
+    publishers: Mapping[str, Iterable[Endpoint]], state_topics: Iterable[str], own_namespace: str
+) -> list[Endpoint]:
+    """The nodes that publish every one of ``state_topics`` (``publishers``: topic ->
+    its publishers), bar the node table's own in the run's namespace: the plants a run
+    may adopt when none is named (it adopts a single one; a second is foreign)."""
+    sets = [
+        {
+            e
+            for e in publishers.get(topic, ())
+            if not (e.namespace == own_namespace and e.name in _TABLE_NAMES)
+        }
+        for topic in state_topics
+    ]
+    return sorted(set.intersection(*sets)) if sets else []
 
 
 def foreign_run_nodes(nodes: Iterable[Endpoint], own_namespace: str | None) -> list[Endpoint]:

@@ -33,7 +33,7 @@ from typing import Any
 from attitude_core.config.parameters import ParameterError
 from attitude_core.contract import node_graph as graph
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.runtime import run_identity
+from attitude_core.runtime.run_identity import namespace_error, node_name_error
 from attitude_tools.output.rundir import OutputDirError
 from attitude_tools.output.strict_json import dumps_strict
 from attitude_tools.run.domain import DomainBusyError, NoFreeDomain
@@ -84,6 +84,8 @@ def run_scenario(
     plant_timeout_s: float = 60.0,
     namespace: str | None = None,
     external_estimate: bool = False,
+    plant_nodes: tuple[str, ...] = (),
+    hold: bool = False,
 ) -> tuple[dict[str, Any], Path]:
     """Run one scenario through the node graph; return (summary, run directory).
 
@@ -98,6 +100,11 @@ def run_scenario(
     for one (a hardware-in-the-loop bridge) to publish the state. With a scenario that
     declares ``sensors.*`` the estimator node runs on the plant's measurements, unless
     ``external_estimate`` (an external plant that publishes its own estimate).
+    ``plant_nodes``: the external plant's nodes by name (any namespace; default: the
+    single node publishing both state topics is adopted). The nodes are managed: the
+    run's lifecycle manager configures them, checks the run, activates them in start
+    order (``hold``: only when the operator sends SIGUSR1) and brings them down in
+    reverse.
     """
     req = RunRequest(
         scenario_path=scenario_path,
@@ -111,6 +118,8 @@ def run_scenario(
         plant_timeout_s=plant_timeout_s,
         namespace=namespace,
         external_estimate=external_estimate,
+        plant_nodes=plant_nodes,
+        hold=hold,
     )
     inputs = check_inputs(req)  # nothing written or started before this passes
     staged = stage_run(req, inputs, ros_environment(workspace))
@@ -188,8 +197,25 @@ def _parser() -> argparse.ArgumentParser:
         "--run-namespace",
         default=None,
         metavar="NS",
-        help="ROS namespace of the run's nodes (default: a fresh /attitude_run_<id>); "
-        "an external plant joins the run with `-r __ns:=NS`",
+        help="ROS namespace of the run's nodes, any but the root (default: a fresh "
+        "/attitude_run_<id>); an external plant joins the run with `-r __ns:=NS`, or "
+        "is named with --plant-node",
+    )
+    parser.add_argument(
+        "--plant-node",
+        action="append",
+        default=[],
+        metavar="NODE",
+        help="with --plant external: the plant's node, fully qualified, in any namespace "
+        "(e.g. /bsk_bridge); repeat it for a plant split over several nodes. Only they "
+        "may publish the plant's topics. Default: adopt the single node that publishes "
+        "both state topics (named on stderr and in summary.json, plant_node)",
+    )
+    parser.add_argument(
+        "--hold",
+        action="store_true",
+        help="stop after configure and the checks (fingerprints, plant present) and wait "
+        "for the operator: `kill -USR1 <attitude-run pid>` activates the nodes",
     )
     parser.add_argument(
         "--external-estimate",
@@ -205,12 +231,16 @@ def _parser() -> argparse.ArgumentParser:
 
 def _node_params(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dict[str, list[str]]:
     """Check the arguments argparse cannot; each node's ``--param`` items, by role."""
-    if args.run_namespace is not None and not run_identity.in_run(args.run_namespace):
-        prefix = "/" + run_identity.RUN_NAMESPACE_PREFIX
-        parser.error(
-            f"--run-namespace {args.run_namespace!r}: must start with {prefix!r} "
-            f"(e.g. {prefix}hil1)"
-        )
+    reason = None if args.run_namespace is None else namespace_error(args.run_namespace)
+    if reason is not None:
+        parser.error(f"--run-namespace {args.run_namespace!r}: {reason}")
+    for name in args.plant_node:
+        if (why := node_name_error(name)) is not None:
+            parser.error(f"--plant-node {name!r}: {why}")
+    if args.plant_node and args.plant != PLANT_EXTERNAL:
+        parser.error("--plant-node: needs --plant external (the simulator is the run's own)")
+    if len(set(args.plant_node)) != len(args.plant_node):
+        parser.error(f"--plant-node: a node named twice in {args.plant_node}")
     if not 0.0 < args.plant_timeout_s <= 3600.0:
         parser.error(f"--plant-timeout-s: must be in (0, 3600], got {args.plant_timeout_s!r}")
     node_params: dict[str, list[str]] = {}
@@ -252,6 +282,8 @@ def main(argv: list[str] | None = None) -> int:
             plant_timeout_s=args.plant_timeout_s,
             namespace=args.run_namespace,
             external_estimate=args.external_estimate,
+            plant_nodes=tuple(args.plant_node),
+            hold=args.hold,
         )
     except (
         ParameterError,

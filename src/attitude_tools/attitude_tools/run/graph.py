@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from attitude_core.contract import node_graph
 from attitude_core.contract.node_graph import NodeSpec
 from attitude_core.runtime.process_identity import OWNER_ENV, ProcessIdentity
 from attitude_tools.run.processes import die_with_parent
@@ -23,21 +24,34 @@ class NodeGraph:
         self.ros2, self.env, self.log_dir, self.cwd = ros2, env, log_dir, cwd
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
 
-    def start(self, spec: NodeSpec[Any], ros_args: list[str], name: str | None = None) -> None:
-        """Start ``spec``'s executable; its log and key are ``name`` (default: its role)."""
+    def start(
+        self,
+        spec: NodeSpec[Any],
+        ros_args: list[str],
+        name: str | None = None,
+        autostart: bool = True,
+        piped: bool = False,
+    ) -> subprocess.Popen[bytes]:
+        """Start ``spec``'s executable; its log and key are ``name`` (default: its role).
+        ``autostart``: a managed node configures and activates itself (False: it waits
+        for a lifecycle manager). ``piped``: stdin and stdout are pipes (the manager's
+        commands and events), stderr the log."""
         name = spec.role if name is None else name
         env = {**self.env, OWNER_ENV: ProcessIdentity.current().encode()}  # parent watchdog
+        managed = spec.parameters is not node_graph.MANAGER.parameters
+        own = ["-p", "autostart:=true"] if autostart and managed else []
         with open(self.log_dir / f"{name}.log", "wb") as log:  # the child keeps its copy
             self.procs[name] = subprocess.Popen(
-                [self.ros2, "run", spec.package, spec.executable, "--ros-args", *ros_args],
+                [self.ros2, "run", spec.package, spec.executable, "--ros-args", *own, *ros_args],
                 env=env,
                 cwd=self.cwd,
-                stdout=log,
-                stderr=subprocess.STDOUT,
-                stdin=subprocess.DEVNULL,
+                stdout=subprocess.PIPE if piped else log,
+                stderr=log if piped else subprocess.STDOUT,
+                stdin=subprocess.PIPE if piped else subprocess.DEVNULL,
                 start_new_session=True,
                 preexec_fn=die_with_parent(),  # SIGTERM when we die, even by SIGKILL
             )  # we, not the terminal, decide the shutdown order
+        return self.procs[name]
 
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}

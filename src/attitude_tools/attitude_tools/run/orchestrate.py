@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import os
 import shutil
 import signal
 import sys
@@ -27,7 +28,7 @@ from attitude_core.config.scenario import Scenario, ScenarioError, load_scenario
 from attitude_core.contract import node_graph as graph
 from attitude_core.contract.node_graph import NodeSpec
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.contract.topics import ATTITUDE, IMU, STAR_TRACKER
+from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, IMU, STAR_TRACKER
 from attitude_core.runtime import run_identity
 from attitude_core.runtime.recording import EXIT_NO_PLANT
 from attitude_tools.bag.recovery import (
@@ -45,6 +46,7 @@ from attitude_tools.run.domain import DomainReservation, claim_domain
 from attitude_tools.run.errors import NodeInputError, RunError
 from attitude_tools.run.graph import NodeGraph
 from attitude_tools.run.guard_report import foreign_publishers_logged, guard_failure
+from attitude_tools.run.manager_link import ManagerLink
 from attitude_tools.run.node_params import check_node_params
 from attitude_tools.run.stale import salvage_stale_runs
 
@@ -78,6 +80,7 @@ PLANTS = (PLANT_SIM, PLANT_EXTERNAL)
 # Shutdown budget, 5 s in all: the nodes first, then the recorder (which drains its
 # queues for up to 1.5 s and finishes the bag).
 NODE_GRACE_S, RECORDER_GRACE_S = 1.5, 3.0
+MANAGER_GRACE_S = 6.0  # the lifecycle bring-down: deactivate, shutdown, the bag drained
 STAGE_PREFIX = ".tmp-run-"
 RUN_MIN_FREE_BYTES = 64 * 2**20  # free beside --out before a run starts (bags are MBs)
 NODE_EXIT_BAD_INPUT = 2  # attitude_ros.runner.EXIT_BAD_INPUT
@@ -98,6 +101,8 @@ class RunRequest:
     plant_timeout_s: float
     namespace: str | None
     external_estimate: bool = False  # an external plant feeds its own estimate
+    plant_nodes: tuple[str, ...] = ()  # an external plant's nodes, named (any namespace)
+    hold: bool = False  # stop after configure and the checks until the operator says go
 
 
 @dataclass(frozen=True)
@@ -126,6 +131,16 @@ class StagedRun:
 
 
 @dataclass
+class Bringup:
+    """What the run's lifecycle manager reported: the plant's nodes (named or adopted)."""
+
+    link: ManagerLink | None = None
+    plant_nodes: list[str] = field(default_factory=list)
+    adopted: bool = False
+    held_s: float = 0.0  # wall time held before activation (not counted in the limit)
+
+
+@dataclass
 class RunEnd:
     """How the run ended, as far as known: the later steps may name a failure."""
 
@@ -134,6 +149,7 @@ class RunEnd:
     codes: dict[str, int]  # exit code of each node, by role
     shutdown_s: float
     foreign: list[str] = field(default_factory=list)  # foreign publishers the nodes logged
+    bringup: Bringup = field(default_factory=Bringup)
     wall_s: float = float("nan")
     recovery: Recovery | None = None
 
@@ -218,16 +234,19 @@ def run_nodes(
         s: signal.signal(s, lambda n, f: stop_requested.append(n))
         for s in (signal.SIGINT, signal.SIGTERM)
     }
+    bringup = Bringup()
+    go: list[int] = []  # SIGUSR1: activate after --hold
+    handlers[signal.SIGUSR1] = signal.signal(signal.SIGUSR1, lambda n, f: go.append(n))
     try:
-        _start_nodes(req, inputs, staged, nodes)
-        end_reason, failure = _wait_for_end(req, inputs, staged, nodes, stop_requested)
+        bringup.link = _start_nodes(req, inputs, staged, nodes)
+        end_reason, failure = _wait_for_end(req, inputs, staged, nodes, stop_requested, bringup, go)
     finally:
-        codes, shutdown_s = _stop_nodes(nodes, inputs.started, inputs.nodes)
+        codes, shutdown_s = _stop_nodes(nodes, inputs.started, inputs.nodes, bringup.link)
         for s, h in handlers.items():
             signal.signal(s, h)
         if staged.reservation is not None:
             staged.reservation.release()
-    return RunEnd(end_reason, failure, codes, shutdown_s)
+    return RunEnd(end_reason, failure, codes, shutdown_s, bringup=bringup)
 
 
 def _own_args(req: RunRequest, tmp: Path, nodes: graph.Graph) -> dict[str, list[str]]:
@@ -256,21 +275,51 @@ def _own_args(req: RunRequest, tmp: Path, nodes: graph.Graph) -> dict[str, list[
     }
 
 
+def _string_list(values: list[str] | tuple[str, ...]) -> str:
+    return "[" + ",".join(values) + "]" if values else "['']"
+
+
+def _manager_args(req: RunRequest, inputs: CheckedInputs, namespace: str) -> list[str]:
+    """The lifecycle manager's parameters: the nodes in activation order, the plant."""
+    names = [f"{namespace.rstrip('/')}/{spec.node_name}" for spec in inputs.started]
+    if req.plant == PLANT_SIM:
+        plants: tuple[str, ...] = (f"{namespace.rstrip('/')}/{graph.SIMULATOR.node_name}",)
+    else:
+        plants = req.plant_nodes
+    topics = (IMU, STAR_TRACKER) if inputs.nodes.sensing else (ATTITUDE, ANGULAR_VELOCITY)
+    timeout_s = req.plant_timeout_s if req.plant == PLANT_EXTERNAL else 60.0
+    return [
+        "-r", f"__ns:={namespace}",
+        "-p", f"node_names:={_string_list(names)}",
+        "-p", f"plant_nodes:={_string_list(plants)}",
+        "-p", f"plant_topics:={_string_list(list(topics))}",
+        "-p", f"plant_timeout_s:={float(timeout_s)!r}",
+        "-p", f"hold:={str(req.hold).lower()}",
+    ]  # fmt: skip
+
+
 def _start_nodes(
     req: RunRequest, inputs: CheckedInputs, staged: StagedRun, nodes: NodeGraph
-) -> None:
-    """Start the nodes in start order, in the run's namespace; say where they run."""
+) -> ManagerLink:
+    """Start the nodes (unconfigured) in start order, in the run's namespace, then their
+    lifecycle manager; say where they run."""
     params = ["--params-file", str(Path(req.scenario_path).resolve())]
     own_args = _own_args(req, staged.tmp, inputs.nodes)
+    plants = ["-p", f"plant_nodes:={_string_list(req.plant_nodes)}"] if req.plant_nodes else []
     for spec in inputs.started:  # in start order
         scenario_args = params if spec.parameters.scenario is not None else []
         nodes.start(
             spec,
             ["-r", f"__ns:={staged.namespace}"]
             + scenario_args
+            + plants
             + own_args.get(spec.role, [])
             + inputs.extra[spec.role],
+            autostart=False,
         )
+    link = ManagerLink(
+        nodes.start(graph.MANAGER, _manager_args(req, inputs, staged.namespace), piped=True)
+    )
     env, namespace, time_mode = staged.env, staged.namespace, req.time_mode
     req.log(
         f"attitude-run: {inputs.scenario.name}: nodes started ({time_mode}) in {namespace} on "
@@ -284,7 +333,9 @@ def _start_nodes(
             f"-r __ns:={namespace} "
             f"--params-file {Path(req.scenario_path).resolve()} -p time_mode:={time_mode} "
             f"-p lockstep.expected_subscribers:={graph.state_listeners(inputs.nodes.nodes)}"
+            " (or in any namespace, named with --plant-node)"
         )
+    return link
 
 
 def _wait_for_end(
@@ -293,11 +344,33 @@ def _wait_for_end(
     staged: StagedRun,
     nodes: NodeGraph,
     stop_requested: list[int],
+    bringup: Bringup,
+    go: list[int],
 ) -> tuple[str, str | None]:
-    """Poll the nodes until the run ends; (end reason, failure or None)."""
+    """Poll the nodes and their manager until the run ends; (end reason, failure or None)."""
+    held_since: float | None = None
     while True:
         time.sleep(0.02)
         exited = nodes.exited()
+        for event in bringup.link.events() if bringup.link is not None else []:
+            kind = event["event"]
+            if kind == "failure":
+                return str(event["reason"]), str(event["reason"])
+            if kind == "plant":
+                _adopted(req, bringup, event)
+            elif kind == "holding":
+                held_since = time.monotonic()
+                req.log(
+                    f"attitude-run: configured and checked, holding before activation; "
+                    f"activate with `kill -USR1 {os.getpid()}`"
+                )
+            elif kind == "active" and held_since is not None:
+                bringup.held_s += time.monotonic() - held_since
+                held_since = None
+        if go and bringup.link is not None:
+            go.clear()
+            bringup.link.send("activate")
+        held = bringup.held_s + (time.monotonic() - held_since if held_since else 0.0)
         if stop_requested:
             return "interrupted", "interrupted"
         elif exited.get(graph.RECORDER.role) == 0:
@@ -313,20 +386,40 @@ def _wait_for_end(
                 f"{name} exited with code {code}"
             )
             return failure, failure
-        elif time.monotonic() - inputs.wall0 > staged.timeout_s:
+        elif time.monotonic() - inputs.wall0 - held > staged.timeout_s:
             failure = f"timeout after {staged.timeout_s:.0f} s"
             return failure, failure
 
 
+def _adopted(req: RunRequest, bringup: Bringup, event: dict[str, Any]) -> None:
+    bringup.plant_nodes = [str(n) for n in event.get("nodes", [])]
+    bringup.adopted = bool(event.get("adopted"))
+    if req.plant == PLANT_EXTERNAL:
+        how = "adopted" if bringup.adopted else "named"
+        print(
+            f"attitude-run: plant {how}: {', '.join(bringup.plant_nodes)}",
+            file=sys.stderr,
+            flush=True,
+        )
+
+
 def _stop_nodes(
-    nodes: NodeGraph, started: list[NodeSpec[Any]], nodes_graph: graph.Graph
+    nodes: NodeGraph,
+    started: list[NodeSpec[Any]],
+    nodes_graph: graph.Graph,
+    link: ManagerLink | None,
 ) -> tuple[dict[str, int], float]:
-    """Stop the control loop's nodes, then the observers (the recorder finishes the bag);
-    (exit codes by role, shutdown time in s)."""
+    """The manager deactivates and shuts down the nodes in reverse order; then whatever
+    is left is stopped as before: the control loop's nodes, then the observers (the
+    recorder finishes the bag); (exit codes by role, shutdown time in s)."""
     stop_t0 = time.monotonic()
+    if link is not None and link.send("stop"):
+        link.wait(MANAGER_GRACE_S)
     loop, observers = nodes_graph.stop_order
     codes = nodes.stop([n.role for n in loop if n in started], NODE_GRACE_S)
     codes.update(nodes.stop([n.role for n in observers], RECORDER_GRACE_S))
+    if graph.MANAGER.role in nodes.procs:
+        codes.update(nodes.stop([graph.MANAGER.role], NODE_GRACE_S))
     return codes, time.monotonic() - stop_t0
 
 
@@ -339,8 +432,11 @@ def after_stop(
     """Name the foreign publishers the nodes logged, show the logs of failed nodes,
     finish a bag its recorder left unfinished (``end`` updated)."""
     end.foreign = foreign_publishers_logged(nodes.log_dir)
+    named = "foreign publisher: " + "; ".join(end.foreign)
     if end.foreign and not end.failure:  # seen by a node that does not stop on it (the recorder)
-        end.failure = "foreign publisher: " + "; ".join(end.foreign)
+        end.failure = named
+    elif end.foreign and "foreign publisher" not in (end.failure or ""):
+        end.failure = f"{named} ({end.failure})"  # the cause first (e.g. a node it stopped)
     end.wall_s = time.monotonic() - inputs.wall0
     if end.failure:
         _log_failed_nodes(req.log, nodes)
@@ -390,6 +486,9 @@ def _run_summary_fields(req: RunRequest, staged: StagedRun, end: RunEnd) -> dict
         "run_namespace": staged.namespace,
         "ros_domain_id": int(staged.env["ROS_DOMAIN_ID"]),
         "foreign_publishers": end.foreign,
+        "plant_node": end.bringup.plant_nodes[0] if end.bringup.plant_nodes else None,
+        "plant_nodes": end.bringup.plant_nodes,
+        "plant_adopted": end.bringup.adopted,
     }
 
 

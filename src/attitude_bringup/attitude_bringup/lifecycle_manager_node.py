@@ -1,0 +1,262 @@
+"""Lifecycle manager of one run (``ros2 run attitude_bringup lifecycle_manager``).
+
+Drives the managed nodes ``node_names`` (fully qualified, in activation order) through
+the standard ``lifecycle_msgs`` services, as nav2's lifecycle manager does, in the order
+of :mod:`attitude_core.runtime.bringup`:
+
+1. wait for each node's lifecycle services, then ``configure`` each (a refused
+   scenario fails its configure: the node names the key and exits 2);
+2. check: every loop node publishes its run identity with one scenario fingerprint;
+   the plant is there: the named ``plant_nodes``, or the single node publishing every
+   one of ``plant_topics`` (adopted: a second one is foreign), within
+   ``plant_timeout_s``; ``plant_nodes`` is then set on every managed node;
+3. with ``hold``, wait for a line ``activate`` on stdin (an operator's check point);
+4. ``activate`` each in order; then watch: a transition the manager did not ask for is
+   a failure; a line ``stop`` on stdin, SIGINT or SIGTERM brings the nodes down:
+   ``deactivate``, then ``shutdown``, in reverse order.
+
+Progress and failures go to stdout as :func:`attitude_core.runtime.bringup.event_line`
+lines (``attitude-run`` reads them) and to the log. Exit 0 after a clean bring-down, 1
+after a failure.
+"""
+
+from __future__ import annotations
+
+import queue
+import signal
+import sys
+import threading
+import time
+from typing import Any
+
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from attitude_core.config.parameters import ParameterError
+from attitude_core.contract import node_graph
+from attitude_core.runtime import run_identity as ri
+from attitude_core.runtime.bringup import (
+    TRANSITION_GOALS,
+    TransitionWatch,
+    bring_down_order,
+    event_line,
+)
+from attitude_ros import contract as c
+from attitude_ros.lifecycle_client import LifecycleClient
+from attitude_ros.params import declare_node_parameters
+from attitude_ros.run_guard import diagnostics_events, identity_qos
+
+POLL_S = 0.05
+
+
+class Failure(Exception):
+    """The run cannot go on: the reason names the node."""
+
+
+class LifecycleManager:
+    def __init__(self, node: Node) -> None:
+        own, _ = declare_node_parameters(node, node_graph.MANAGER.parameters)
+        self.node, self.p = node, own
+        self.names = [n for n in own.node_names if n]
+        self.watch = TransitionWatch()
+        self.failures: list[str] = []
+        self.fingerprints: dict[str, tuple[str, str]] = {}  # node -> (role, fingerprint)
+        self.nodes = {n: LifecycleClient(node, n, self.on_event) for n in self.names}
+        node.create_subscription(
+            DiagnosticArray,
+            c.DIAGNOSTICS,
+            self.on_identity,
+            identity_qos(64),
+            event_callbacks=diagnostics_events(node, publisher=False),
+        )
+        self.commands: queue.Queue[str] = queue.Queue()
+        threading.Thread(target=self._read_stdin, daemon=True).start()
+
+    # -- events ------------------------------------------------------------------------
+
+    def emit(self, event: str, **fields: Any) -> None:
+        print(event_line(event, **fields), flush=True)
+
+    def on_event(self, name: str, start: str, goal: str) -> None:
+        failure = self.watch.judge(name, start, goal)
+        if failure is not None and failure not in self.failures:
+            self.failures.append(failure)
+            self.node.get_logger().error(failure)
+            self.emit("failure", reason=failure)
+
+    def on_identity(self, msg: DiagnosticArray) -> None:
+        for status in msg.status:
+            if status.hardware_id == ri.IDENTITY_HARDWARE_ID and status.name in self.nodes:
+                values = {kv.key: kv.value for kv in status.values}
+                self.fingerprints[status.name] = (
+                    values.get(ri.ROLE, ""),
+                    values.get(ri.FINGERPRINT, ""),
+                )
+
+    def _read_stdin(self) -> None:
+        for line in sys.stdin:
+            self.commands.put(line.strip())
+
+    # -- steps ------------------------------------------------------------------------
+
+    def spin_until(self, done: Any, timeout_s: float, what: str) -> None:
+        deadline = time.monotonic() + timeout_s
+        while not done():
+            if self.failures:
+                raise Failure(self.failures[0])
+            if time.monotonic() > deadline:
+                raise Failure(f"{what} within {timeout_s:g} s")
+            rclpy.spin_once(self.node, timeout_sec=POLL_S)
+
+    def transition(self, name: str, label: str) -> None:
+        self.watch.request(name, label)
+        ok = self.nodes[name].transition(label, self.p.transition_timeout_s)
+        if not ok:
+            why = "no answer" if ok is None else "failed"
+            raise Failure(f"{name}: {label} {why} (see its log)")
+        self.watch.settle(name, TRANSITION_GOALS[label])
+        self.emit("transition", node=name, transition=label)
+
+    def bring_up(self, stop: list[int]) -> None:
+        timeout = self.p.transition_timeout_s
+        for name in self.names:
+            self.spin_until(self.nodes[name].ready, timeout, f"no lifecycle services of {name}")
+        for name in self.names:
+            self.transition(name, "configure")
+        self.check_identities()
+        plants = self.find_plant()
+        for name in self.names:
+            if not self.nodes[name].set_strings("plant_nodes", plants, timeout):
+                raise Failure(f"{name}: plant_nodes not set")
+        self.emit("configured", plant_nodes=plants)
+        if self.p.hold:
+            self.emit("holding")
+            self.spin_until(lambda: stop or self.command() == "activate", 1e9, "activate")
+            if stop:
+                return
+        for name in self.names:
+            self.transition(name, "activate")
+        self.emit("active")
+
+    def check_identities(self) -> None:
+        def heard() -> bool:
+            return all(n in self.fingerprints for n in self.names)
+
+        self.spin_until(heard, self.p.transition_timeout_s, "no run identity from every node")
+        loop = {
+            n: fp
+            for n, (role, fp) in self.fingerprints.items()
+            if role != node_graph.RECORDER.role and fp
+        }
+        if len(set(loop.values())) > 1:
+            listed = ", ".join(f"{n} {fp}" for n, fp in sorted(loop.items()))
+            raise Failure(f"scenario mismatch: the nodes run different scenarios ({listed})")
+
+    def find_plant(self) -> list[str]:
+        named = [n for n in self.p.plant_nodes if n]
+        topics = [t for t in self.p.plant_topics if t]
+        if named:
+            self.spin_until(
+                lambda: set(named) <= self.alive(),
+                self.p.plant_timeout_s,
+                f"plant node {', '.join(sorted(set(named) - self.alive()))} not found",
+            )
+            self.emit("plant", nodes=named, adopted=False)
+            return named
+        if not topics:
+            return []
+        found: list[ri.Endpoint] = []
+
+        def one() -> bool:
+            found[:] = self.candidates(topics)
+            return bool(found)
+
+        self.spin_until(one, self.p.plant_timeout_s, f"no plant published {topics[0]}")
+        if len(found) > 1:
+            names = ", ".join(e.node for e in found)
+            raise Failure(
+                f"{len(found)} nodes publish {' and '.join(topics)} ({names}): name the "
+                "plant with --plant-node"
+            )
+        self.emit("plant", nodes=[found[0].node], adopted=True)
+        return [found[0].node]
+
+    def alive(self) -> set[str]:
+        return {ri.Endpoint(ns, n).node for n, ns in self.node.get_node_names_and_namespaces()}
+
+    def candidates(self, topics: list[str]) -> list[ri.Endpoint]:
+        pubs = {
+            t: [
+                ri.Endpoint(i.node_namespace, i.node_name)
+                for i in self.node.get_publishers_info_by_topic(t)
+            ]
+            for t in topics
+        }
+        return ri.plant_candidates(pubs, topics, self.node.get_namespace())
+
+    def command(self) -> str | None:
+        try:
+            return self.commands.get_nowait()
+        except queue.Empty:
+            return None
+
+    def run(self, stop: list[int]) -> None:
+        """Watch until ``stop`` or a line ``stop``."""
+        while not stop and self.command() != "stop":
+            rclpy.spin_once(self.node, timeout_sec=POLL_S)
+
+    def bring_down(self) -> None:
+        """Deactivate, then shut down, in reverse order; a node that is gone is skipped."""
+        alive = self.alive()
+        order = [n for n in bring_down_order(self.names) if n in alive]
+        for label in ("deactivate", "shutdown"):
+            for name in order:
+                state = self.nodes[name].state(2.0)
+                if (
+                    state is None
+                    or state == "finalized"
+                    or (label == "deactivate" and state != "active")
+                ):
+                    continue
+                self.watch.request(name, label)
+                if self.nodes[name].transition(label, 5.0):
+                    self.watch.settle(name, TRANSITION_GOALS[label])
+
+
+def main(args: list[str] | None = None) -> int:
+    stop: list[int] = []
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, lambda n, f: stop.append(n))
+    rclpy.init(
+        args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO
+    )
+    node = rclpy.create_node(node_graph.MANAGER.node_name)
+    code = 0
+    try:
+        manager = LifecycleManager(node)
+    except ParameterError as err:
+        print(f"[{node.get_name()}] error: parameter: {err}", file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        manager.bring_up(stop)
+        manager.run(stop)
+        code = 1 if manager.failures else 0
+    except Failure as err:
+        node.get_logger().error(str(err))
+        if str(err) not in manager.failures:
+            manager.emit("failure", reason=str(err))
+        code = 1
+        manager.run(stop)  # attitude-run decides when the nodes go down
+    finally:
+        manager.bring_down()
+        manager.emit("down")
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

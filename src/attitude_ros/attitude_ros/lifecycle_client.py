@@ -1,0 +1,89 @@
+"""A managed node seen from its manager: the standard ``lifecycle_msgs`` services
+(``<node>/change_state``, ``<node>/get_state``), its ``<node>/transition_event`` and
+its parameters (``rcl_interfaces``), driven from one rclpy node by spinning it."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import rclpy
+from lifecycle_msgs.msg import Transition, TransitionEvent
+from lifecycle_msgs.srv import ChangeState, GetState
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+
+__all__ = ["LifecycleClient"]
+
+
+def _on_transition(event: Any, name: str, on_event: Callable[[str, str, str], None]) -> None:
+    on_event(name, event.start_state.label, event.goal_state.label)
+
+
+class LifecycleClient:
+    """The lifecycle interface of the node ``name`` (fully qualified)."""
+
+    def __init__(
+        self,
+        node: Node,
+        name: str,
+        on_event: Callable[[str, str, str], None],
+        executor: Any = None,
+    ) -> None:
+        """``on_event(name, start_label, goal_label)`` for each transition event;
+        ``executor``: the one spinning ``node`` (default: rclpy's global one)."""
+        self.node, self.name, self.executor = node, name, executor
+        self.change = node.create_client(ChangeState, f"{name}/change_state")
+        self.get = node.create_client(GetState, f"{name}/get_state")
+        self.params = AsyncParameterClient(node, name)
+        node.create_subscription(
+            TransitionEvent,
+            f"{name}/transition_event",
+            lambda e: _on_transition(e, name, on_event),
+            10,
+        )
+
+    def ready(self) -> bool:
+        """Whether both lifecycle services are discovered."""
+        return bool(self.change.service_is_ready() and self.get.service_is_ready())
+
+    def _call(self, client: Any, request: Any, timeout_s: float) -> Any:
+        future = client.call_async(request)
+        if self.executor is not None:
+            self.executor.spin_until_future_complete(future, timeout_sec=timeout_s)
+        else:
+            rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout_s)
+        if not future.done():
+            client.remove_pending_request(future)
+            return None
+        return future.result()
+
+    def state(self, timeout_s: float) -> str | None:
+        """The node's current state label; None when it does not answer in time."""
+        response = self._call(self.get, GetState.Request(), timeout_s)
+        return None if response is None else str(response.current_state.label)
+
+    def transition(self, label: str, timeout_s: float) -> bool | None:
+        """Request the transition ``label`` (configure, activate, ...): whether it
+        succeeded; None when the node did not answer within ``timeout_s``."""
+        request = ChangeState.Request(transition=Transition(label=label))
+        response = self._call(self.change, request, timeout_s)
+        return None if response is None else bool(response.success)
+
+    def set_strings(self, key: str, values: Sequence[str], timeout_s: float) -> bool:
+        """Set a string-array parameter; whether the node took it."""
+        if not self.params.wait_for_services(timeout_sec=timeout_s):
+            return False
+        value = list(values) or [""]
+        param = Parameter(key, Parameter.Type.STRING_ARRAY, value)  # type: ignore[no-untyped-call]
+        future: Any = self.params.set_parameters([param])
+        deadline = time.monotonic() + timeout_s
+        while not future.done() and time.monotonic() < deadline:
+            if self.executor is not None:
+                self.executor.spin_once(timeout_sec=0.05)
+            else:
+                rclpy.spin_once(self.node, timeout_sec=0.05)
+        result = future.result() if future.done() else None
+        return result is not None and all(r.successful for r in result.results)
