@@ -100,8 +100,10 @@ def test_no_external_plant_fails_clearly_and_keeps_the_logs(tmp_path, ros_env):
     assert proc.returncode == 1, proc.stdout + proc.stderr
     assert "no plant published /spacecraft/attitude within 3 s" in proc.stderr
     assert "Traceback" not in proc.stderr
-    recorder_log = (out / "logs" / "recorder.log").read_text()
-    assert "no state on /spacecraft/attitude after 3.0 s" in recorder_log
+    # The lifecycle manager looked for the plant after configure, before activation.
+    manager_log = (out / "logs" / "manager.log").read_text()
+    assert "no plant published /spacecraft/attitude within 3 s" in manager_log
+    assert "active" not in (out / "logs" / "recorder.log").read_text()  # never activated
     assert not (out / "logs" / "simulator.log").exists()  # no simulator was started
 
 

@@ -42,10 +42,10 @@ class Lifecycle:
             self.spin_until(self.clients[name].ready, f"{name}'s lifecycle services")
         return self.clients[name]
 
-    def spin_until(self, condition, what: str) -> None:
+    def spin_until(self, condition, what) -> None:
         deadline = time.monotonic() + WAIT_S
         while not condition():
-            assert time.monotonic() < deadline, f"timed out waiting for {what}"
+            assert time.monotonic() < deadline, f"timed out waiting for {what}: {self.events}"
             self.graph.executor.spin_once(timeout_sec=0.05)
 
     def state(self, name: str) -> str:
@@ -75,12 +75,17 @@ def test_a_node_started_by_hand_walks_every_transition(graph):
     assert lc.set(name, "deactivate") and lc.state(name) == "inactive"
     assert lc.set(name, "cleanup") and lc.state(name) == "unconfigured"
     assert lc.set(name, "configure") and lc.state(name) == "inactive"  # endpoints anew
+
+    # Each transition the node made, as its ~/transition_event reported it (waited for
+    # before the shutdown: a process that exits may take its last samples with it).
+    def goals():
+        primary = ("unconfigured", "inactive", "active", "finalized")
+        return [goal for _, _, goal in lc.events if goal in primary]
+
+    lc.spin_until(lambda: len(goals()) >= 5, "the transition events")
+    assert goals() == ["inactive", "active", "inactive", "unconfigured", "inactive"]
     assert lc.set(name, "shutdown")
-    proc = graph.graph.procs["controller"]
-    assert proc.wait(WAIT_S) == 0
-    lc.spin_until(lambda: ("configuring", "inactive") in [e[1:] for e in lc.events], "events")
-    goals = [goal for _, start, goal in lc.events if start.endswith("ing")]
-    assert goals == ["inactive", "active", "inactive", "unconfigured", "inactive", "finalized"]
+    assert graph.graph.procs["controller"].wait(WAIT_S) == 0
 
 
 def test_a_bad_scenario_fails_configure_with_the_key_named_and_exit_2(graph):
@@ -121,7 +126,7 @@ def test_deactivating_the_controller_and_planner_mid_run_is_a_safe_stop(graph):
     np.testing.assert_array_equal(run.torque_b[after], 0.0)
     held = run.t > held_s + 0.5
     assert held.sum() >= 10
-    np.testing.assert_array_equal(run.sigma_t[held], run.sigma_t[held][0])
+    np.testing.assert_array_equal(run.sigma_t[held], np.tile(run.sigma_t[held][0], (held.sum(), 1)))
     np.testing.assert_array_equal(run.omega_t[held], 0.0)
 
 

@@ -336,6 +336,7 @@ def test_sigint_stops_every_process_and_keeps_a_readable_bag(tmp_path, ros_domai
         "planner",
         "controller",
         "recorder",
+        "manager",  # the lifecycle manager brought the others down
     }
     assert summary["exit_codes"]["recorder"] == 0  # the bag was finished, not killed
     bag_run = run_from_bag(str(out / "bag"))

@@ -49,6 +49,7 @@ from attitude_ros.params import declare_node_parameters
 from attitude_ros.run_guard import diagnostics_events, identity_qos
 
 POLL_S = 0.05
+UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"  # rmw's name of an endpoint whose node is not known yet
 
 
 class Failure(Exception):
@@ -187,13 +188,14 @@ class LifecycleManager:
         return {ri.Endpoint(ns, n).node for n, ns in self.node.get_node_names_and_namespaces()}
 
     def candidates(self, topics: list[str]) -> list[ri.Endpoint]:
-        pubs = {
-            t: [
-                ri.Endpoint(i.node_namespace, i.node_name)
-                for i in self.node.get_publishers_info_by_topic(t)
-            ]
-            for t in topics
-        }
+        """The plants a run may adopt now; none while a publisher's node is still being
+        discovered (its name comes a little after its endpoint)."""
+        pubs: dict[str, list[ri.Endpoint]] = {}
+        for t in topics:
+            infos = self.node.get_publishers_info_by_topic(t)
+            if any(i.node_name == UNKNOWN_NODE for i in infos):
+                return []
+            pubs[t] = [ri.Endpoint(i.node_namespace, i.node_name) for i in infos]
         return ri.plant_candidates(pubs, topics, self.node.get_namespace())
 
     def command(self) -> str | None:

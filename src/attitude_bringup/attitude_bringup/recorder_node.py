@@ -121,10 +121,9 @@ class BagRecorderNode(StackNode):
         if err is None or self.reported:
             return err is not None
         self.reported = True
-        cause = "disk full" if err.disk_full else "write failed"
         self.get_logger().error(
-            f"cannot record the bag: {cause}: {err}; recording stopped, "
-            f"{self.writer.message_count} messages kept for recovery "
+            f"cannot record the bag: {'disk full' if err.disk_full else 'write failed'}: {err}; "
+            f"recording stopped, {self.writer.message_count} messages kept for recovery "
             f"(attitude-bag-recover {self.output_dir})"
         )
         self.stop(EXIT_DISK_FULL if err.disk_full else EXIT_WRITE_FAILED)

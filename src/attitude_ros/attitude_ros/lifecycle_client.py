@@ -38,7 +38,7 @@ class LifecycleClient:
         self.change = node.create_client(ChangeState, f"{name}/change_state")
         self.get = node.create_client(GetState, f"{name}/get_state")
         self.params = AsyncParameterClient(node, name)
-        node.create_subscription(
+        self.events = node.create_subscription(
             TransitionEvent,
             f"{name}/transition_event",
             lambda e: _on_transition(e, name, on_event),
@@ -46,8 +46,10 @@ class LifecycleClient:
         )
 
     def ready(self) -> bool:
-        """Whether both lifecycle services are discovered."""
-        return bool(self.change.service_is_ready() and self.get.service_is_ready())
+        """Whether both lifecycle services are discovered and the transition events
+        matched (none is missed from then on)."""
+        services = self.change.service_is_ready() and self.get.service_is_ready()
+        return bool(services and self.events.get_publisher_count() > 0)
 
     def _call(self, client: Any, request: Any, timeout_s: float) -> Any:
         future = client.call_async(request)

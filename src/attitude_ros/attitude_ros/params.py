@@ -86,7 +86,8 @@ def _declare(
     else:
         value = list(row.default) if isinstance(row.default, tuple) else row.default
     try:
-        node.declare_parameter(row.key, value, descriptor(row))
+        if not node.has_parameter(row.key):  # declared: a configure after cleanup
+            node.declare_parameter(row.key, value, descriptor(row))
         return plain_value(node.get_parameter(row.key).value)
     except ParameterUninitializedException:
         return None

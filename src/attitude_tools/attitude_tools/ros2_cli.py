@@ -1,7 +1,10 @@
-"""A minimal ``ros2`` command for machines without the ROS 2 command line: ``ros2 run`` only.
+"""A minimal ``ros2`` command for machines without the ROS 2 command line (ROS 2 from pip).
 
 The ROS 2 Jazzy wheels give us rclpy and the message packages but not ros2cli. This shim
-implements the one verb the stack needs, with the behaviour of ros2cli's ``ros2run``::
+implements ``ros2 run`` here, and a few inspection verbs (``topic list|echo|hz``, ``node
+list``, ``lifecycle nodes|get|set|list``, ``param list|get``, ``bag info``) in
+:mod:`attitude_tools.ros2cli`, whose modules say where they differ from ros2cli. Other
+verbs print the usage and exit 2. ``ros2 run`` has the behaviour of ros2cli's ``ros2run``::
 
     ros2 run [--prefix PREFIX] <package_name> <executable_name> [argv ...]
 
@@ -26,6 +29,7 @@ Installed as ``.venv/bin/ros2`` by ``tools/bootstrap`` only when no real ``ros2`
 """
 
 import argparse
+import importlib
 import os
 import shlex
 import signal
@@ -34,13 +38,20 @@ from collections.abc import Sequence
 
 from ament_index_python import PackageNotFoundError, get_package_prefix
 
+from attitude_tools.ros2cli import VERBS
+
 USAGE = """\
 usage: ros2 run [--prefix PREFIX] <package_name> <executable_name> [argv ...]
+       ros2 topic list|echo|hz ...
+       ros2 node list ...
+       ros2 lifecycle nodes|get|set|list ...
+       ros2 param list|get ...
+       ros2 bag info <bag_path>
 
 This 'ros2' is the attitude stack's minimal shim for machines without the ROS 2
-command line tools (ROS 2 from pip wheels): it implements only 'ros2 run', as
-ros2cli's ros2run does. For other verbs (launch, topic, bag, ...) install ROS 2.
-See 'ros2 run -h'.
+command line tools (ROS 2 from pip wheels): it implements only these verbs, in
+ros2cli's formats ('ros2 run' as ros2cli's ros2run does). For other verbs (launch,
+service, bag record, ...) install ROS 2. See 'ros2 <verb> -h'.
 """
 
 
@@ -149,11 +160,23 @@ def run(args: argparse.Namespace) -> int:
     return 1  # not reached
 
 
+def _verb(name: str, argv: list[str]) -> int:
+    """Run an inspection verb of :mod:`attitude_tools.ros2cli` (imported only now)."""
+    module = importlib.import_module(VERBS[name])
+    try:
+        status: int = module.main(argv)
+    except KeyboardInterrupt:  # ros2cli's status for an interrupted verb
+        return int(signal.SIGINT)
+    return status
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if argv and argv[0] in ('-h', '--help'):
         print(USAGE, end='')
         return 0
+    if argv and argv[0] in VERBS:
+        return _verb(argv[0], argv[1:])
     if not argv or argv[0] != 'run':
         print(USAGE, end='', file=sys.stderr)
         if argv:

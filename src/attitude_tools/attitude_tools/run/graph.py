@@ -56,6 +56,16 @@ class NodeGraph:
     def exited(self) -> dict[str, int]:
         return {n: p.returncode for n, p in self.procs.items() if p.poll() is not None}
 
+    def wait_exit(self, names: Sequence[str], timeout_s: float) -> None:
+        """Wait up to ``timeout_s`` for ``names`` to exit by themselves (shut down by
+        their lifecycle manager, they are on their way out)."""
+        deadline = time.monotonic() + timeout_s
+        for p in [self.procs[n] for n in names if n in self.procs]:
+            try:
+                p.wait(max(0.0, deadline - time.monotonic()))
+            except subprocess.TimeoutExpired:
+                return
+
     def stop(self, names: Sequence[str], grace_s: float) -> dict[str, int]:
         """SIGINT to each, wait up to ``grace_s`` together, then SIGKILL the rest."""
         live = [self.procs[n] for n in names if self.procs[n].poll() is None]

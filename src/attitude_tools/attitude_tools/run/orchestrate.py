@@ -413,9 +413,9 @@ def _stop_nodes(
     is left is stopped as before: the control loop's nodes, then the observers (the
     recorder finishes the bag); (exit codes by role, shutdown time in s)."""
     stop_t0 = time.monotonic()
-    if link is not None and link.send("stop"):
-        link.wait(MANAGER_GRACE_S)
     loop, observers = nodes_graph.stop_order
+    if link is not None and link.send("stop") and link.wait(MANAGER_GRACE_S):
+        nodes.wait_exit([n.role for n in started], NODE_GRACE_S)  # finalized: exiting
     codes = nodes.stop([n.role for n in loop if n in started], NODE_GRACE_S)
     codes.update(nodes.stop([n.role for n in observers], RECORDER_GRACE_S))
     if graph.MANAGER.role in nodes.procs:
