@@ -453,10 +453,11 @@ def test_node_sources_subscribe_and_publish_their_table_topics(spec):
 @pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_sources_take_their_name_from_the_table(spec):
     text = module_file(spec).read_text(encoding="utf-8")
-    # Named from the table directly, or through StackNode (which takes spec.node_name).
+    # Named from the table directly, or through StackNode (which takes spec.node_name
+    # from the class's ``spec``).
     assert (
         f"node_graph.{spec.role.upper()}.node_name" in text
-        or f"super().__init__(node_graph.{spec.role.upper()}," in text
+        or f"    spec = node_graph.{spec.role.upper()}\n" in text
     )
     assert f"node_graph.{spec.role.upper()}.parameters" in text
 

@@ -102,3 +102,34 @@ def test_verbs_during_and_after_a_held_real_time_run(tmp_path, ros_env):
         assert line is not None and int(line.group(1)) == count, (topic, info.stdout)
     total = re.search(r"^Messages:\s+(\d+)$", info.stdout, re.M)
     assert total is not None and int(total.group(1)) == sum(counts.values())
+
+
+def test_a_transition_the_manager_did_not_ask_for_ends_the_run_named(tmp_path, ros_env):
+    """An operator deactivates the controller by hand (``ros2 lifecycle set``) in a
+    real-time run: the manager names it as the run's failure, and the bag keeps the
+    run up to then, with zero torque applied after the deactivation."""
+    env = ros_env(ros_environment())
+    out = tmp_path / "run"
+    run = subprocess.Popen(
+        [ATTITUDE_RUN, str(ROOT / "scenarios" / "case1.yaml"), "--out", str(out), "--quiet",
+         "--mode", "realtime", "--run-namespace", NS],
+        env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    controller = f"{NS}/{node_graph.CONTROLLER.node_name}"
+    simulator = f"{NS}/{node_graph.SIMULATOR.node_name}"
+    try:
+        until("active", lambda: shim(env, "lifecycle", "get", simulator).stdout.strip(),
+              lambda s: s == "active [3]")  # fmt: skip
+        stepping = shim(env, "topic", "echo", "--once", t.APPLIED_TORQUE)  # a step applied
+        assert stepping.returncode == 0, stepping.stderr
+        res = shim(env, "lifecycle", "set", controller, "deactivate")
+        assert res.returncode == 0 and "Transitioning successful" in res.stdout, res
+        _, stderr = run.communicate(timeout=DEADLINE_S)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode == 1, stderr
+    summary = json.loads((out / "summary.json").read_text())
+    failure = summary["failure"]
+    assert controller in failure and "unexpected transition" in failure, failure
+    assert summary["min_margin_deg"] > 0.0 and summary["steps_recorded"] >= 1

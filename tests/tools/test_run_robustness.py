@@ -85,7 +85,8 @@ def _dead_identity() -> ProcessIdentity:
 @pytest.mark.slow
 @needs_workspace
 def test_sigkilled_run_leaves_no_orphans_and_the_next_run_recovers(tmp_path, ros_domain):
-    """SIGKILL to attitude-run's process group mid-run: its four nodes exit within 5 s
+    """SIGKILL to attitude-run's process group mid-run: its four nodes and their manager
+    exit within 5 s
     (parent-death signal), the recorder finishes the bag; the next run into the same
     --out recovers that staging directory as ``out.interrupted-*`` and completes."""
     out = tmp_path / "out"
@@ -93,7 +94,8 @@ def test_sigkilled_run_leaves_no_orphans_and_the_next_run_recovers(tmp_path, ros
         CASE1, out, run_env(ros_domain), "--settle-s", "200.0", start_new_session=True
     )
     try:
-        nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 4 and c, 60, "4 nodes")
+        # The four nodes and their lifecycle manager.
+        nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 5 and c, 60, "5 processes")
         stages = list(tmp_path.glob(".tmp-run-out-*"))
         assert len(stages) == 1, stages
         staging = stages[0]

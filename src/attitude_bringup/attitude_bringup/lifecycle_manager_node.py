@@ -22,6 +22,7 @@ after a failure.
 
 from __future__ import annotations
 
+import os
 import queue
 import signal
 import sys
@@ -78,7 +79,10 @@ class LifecycleManager:
     # -- events ------------------------------------------------------------------------
 
     def emit(self, event: str, **fields: Any) -> None:
-        print(event_line(event, **fields), flush=True)
+        try:
+            print(event_line(event, **fields), flush=True)
+        except (BrokenPipeError, OSError):  # attitude-run is gone: the log still has it
+            self.node.get_logger().info(f"event {event} {fields} (no reader)")
 
     def on_event(self, name: str, start: str, goal: str) -> None:
         failure = self.watch.judge(name, start, goal)
@@ -215,7 +219,7 @@ class LifecycleManager:
         order = [n for n in bring_down_order(self.names) if n in alive]
         for label in ("deactivate", "shutdown"):
             for name in order:
-                state = self.nodes[name].state(2.0)
+                state = self.nodes[name].state(1.0)
                 if (
                     state is None
                     or state == "finalized"
@@ -229,6 +233,7 @@ class LifecycleManager:
 
 def main(args: list[str] | None = None) -> int:
     stop: list[int] = []
+    parent = os.getppid()
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, lambda n, f: stop.append(n))
     rclpy.init(
@@ -253,7 +258,8 @@ def main(args: list[str] | None = None) -> int:
         code = 1
         manager.run(stop)  # attitude-run decides when the nodes go down
     finally:
-        manager.bring_down()
+        if os.getppid() == parent:  # else attitude-run died: the nodes have gone with it
+            manager.bring_down()
         manager.emit("down")
         node.destroy_node()
         rclpy.try_shutdown()

@@ -16,7 +16,7 @@ point              judged from
 ``stale``          lockstep: hold one step, then zero torque; real time: zero once stale
 =================  ==========================================================================
 
-``qos`` and ``sigint`` are judged in :mod:`.checks_process`.
+``qos``, ``plant`` and ``sigint`` are judged in :mod:`.checks_process`.
 """
 
 from __future__ import annotations
