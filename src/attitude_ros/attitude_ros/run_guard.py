@@ -143,8 +143,15 @@ class RunGuard:
         now = time.monotonic()
         plants = self.plant_nodes()
         # In a run, before activation and with no plant named yet, a plant outside the
-        # namespace is not judged: the lifecycle manager adopts one first.
-        adopting = self.strict and not plants and not getattr(self.node, "active", True)
+        # namespace is not judged: the lifecycle manager adopts one first. This holds for
+        # the observer (the recorder) too, which would otherwise log the plant as foreign.
+        adopting = (
+            ri.in_run(self.namespace) and not plants and not getattr(self.node, "active", True)
+        )
+        if plants and self.foreign:  # seen before the plant was named, adopted since
+            for topic, endpoint in list(self.foreign):
+                if not ri.foreign_publishers(topic, [endpoint], self.namespace, plants):
+                    del self.foreign[(topic, endpoint)]
         for topic in self.inputs:
             infos = self.node.get_publishers_info_by_topic(topic)
             self._counts[topic] = len(infos)

@@ -304,7 +304,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"attitude-run: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
         return 1
     ok = summary["reached"] and summary["min_margin_deg"] > 0.0 and not summary["failure"]
+    if not ok:  # said on stderr even with --quiet: a failed run never ends silently
+        print(f"attitude-run: failed: {_failure_line(summary)}", file=sys.stderr)
     return 0 if ok else 1
+
+
+def _failure_line(summary: dict[str, object]) -> str:
+    """Why a finished run is a failure, from its summary."""
+    if summary["failure"]:
+        return str(summary["failure"])
+    if not summary["reached"]:
+        return f"goal not reached ({summary['end_reason']})"
+    return f"keep-out margin {summary['min_margin_deg']} deg on the body"
 
 
 if __name__ == "__main__":
