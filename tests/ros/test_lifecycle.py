@@ -103,21 +103,25 @@ def test_a_bad_scenario_fails_configure_with_the_key_named_and_exit_2(graph):
     assert "Traceback" not in text
 
 
-def test_deactivating_the_controller_and_planner_mid_run_is_a_safe_stop(graph):
-    """Lockstep, nodes started with autostart: at 5 s of run time the controller, then
-    the planner, are deactivated by hand. From then on every applied torque is exactly
-    zero and the loop keeps stepping; the held target does not move. Judged from the bag
-    alone (the test's best-effort /clock lags the lockstep loop on a loaded machine)."""
-    lc = Lifecycle(graph)
-    graph.start()
-    graph.wait_clock(5.0)
-    controller = "/" + node_graph.CONTROLLER.node_name
-    planner = "/" + node_graph.PLANNER.node_name
-    assert lc.set(controller, "deactivate") and lc.state(controller) == "inactive"
-    assert lc.set(planner, "deactivate") and lc.state(planner) == "inactive"
-    held_s = graph.clock_s
-    graph.wait_clock(held_s + 3.0)  # the loop keeps stepping on zero torque
-    graph.close()
+def test_deactivating_the_controller_and_planner_mid_run_is_a_safe_stop(tmp_path, ros_domain):
+    """Nodes started with autostart, in real time (so "at 5 s" holds to a step or two: a
+    lockstep loop runs 100 s of simulated time while a lifecycle request is answered):
+    at 5 s of run time the controller, then the planner, are deactivated by hand. From
+    then on every applied torque is exactly zero and the loop keeps stepping; the held
+    target does not move. Judged from the bag."""
+    graph = Graph(tmp_path, ros_domain, sim_params=["time_mode:=realtime"])
+    try:
+        lc = Lifecycle(graph)
+        graph.start()
+        graph.wait_clock(0.0)  # the first state: real-time stamps are the plant's clock
+        graph.wait_clock(graph.clock_s + 5.0)
+        controller = "/" + node_graph.CONTROLLER.node_name
+        planner = "/" + node_graph.PLANNER.node_name
+        assert lc.set(controller, "deactivate") and lc.state(controller) == "inactive"
+        assert lc.set(planner, "deactivate") and lc.state(planner) == "inactive"
+        graph.wait_clock(graph.clock_s + 3.0)  # the loop keeps stepping on zero torque
+    finally:
+        graph.close()  # the recorder finishes the bag on SIGINT
     run = run_from_bag(str(graph.bag)).run
     k_off = _trailing_start(np.all(run.torque_b == 0.0, axis=1))
     assert k_off > 0 and run.t[k_off] >= 5.0 - 1e-9  # the torque ran until deactivation

@@ -4,15 +4,16 @@ Drives the managed nodes ``node_names`` (fully qualified, in activation order) t
 the standard ``lifecycle_msgs`` services, as nav2's lifecycle manager does, in the order
 of :mod:`attitude_core.runtime.bringup`:
 
-1. wait for each node's lifecycle services, then ``configure`` each (a refused
-   scenario fails its configure: the node names the key and exits 2);
+1. ``configure`` each node as soon as its lifecycle services are there, in parallel (a
+   refused scenario fails its configure: the node names the key and exits 2);
 2. check: every loop node publishes its run identity with one scenario fingerprint;
    the plant is there: the named ``plant_nodes``, or the single node publishing every
    one of ``plant_topics`` (adopted: a second one is foreign), within
    ``plant_timeout_s``; ``plant_nodes`` is then set on every managed node;
 3. with ``hold``, wait for a line ``activate`` on stdin (an operator's check point);
 4. ``activate`` each in order; then watch: a transition the manager did not ask for is
-   a failure; a line ``stop`` on stdin, SIGINT or SIGTERM brings the nodes down:
+   a failure; a line ``stop [NODE ...]`` on stdin (the nodes named there have exited),
+   SIGINT or SIGTERM brings the nodes down:
    ``deactivate``, then ``shutdown``, in reverse order.
 
 Progress and failures go to stdout as :func:`attitude_core.runtime.bringup.event_line`
@@ -45,9 +46,11 @@ from attitude_core.runtime.bringup import (
     event_line,
 )
 from attitude_ros import contract as c
+from attitude_ros import dds_profile
 from attitude_ros.lifecycle_client import LifecycleClient
 from attitude_ros.params import declare_node_parameters
 from attitude_ros.run_guard import diagnostics_events, identity_qos
+from attitude_ros.runner import exit_process
 
 POLL_S = 0.05
 UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"  # rmw's name of an endpoint whose node is not known yet
@@ -74,6 +77,7 @@ class LifecycleManager:
             event_callbacks=diagnostics_events(node, publisher=False),
         )
         self.commands: queue.Queue[str] = queue.Queue()
+        self.gone: set[str] = set()  # nodes whose processes have ended (attitude-run says)
         threading.Thread(target=self._read_stdin, daemon=True).start()
 
     # -- events ------------------------------------------------------------------------
@@ -124,17 +128,52 @@ class LifecycleManager:
         self.watch.settle(name, TRANSITION_GOALS[label])
         self.emit("transition", node=name, transition=label)
 
-    def bring_up(self, stop: list[int]) -> None:
+    def configure_all(self) -> None:
+        """Configure every node, each as soon as its lifecycle services are there: the
+        nodes configure in parallel (configure does not depend on the order; activate
+        does, and stays in order)."""
+        deadline = time.monotonic() + self.p.transition_timeout_s
+        pending: dict[str, Any] = {}
+        while len(pending) < len(self.names) or not all(f.done() for f in pending.values()):
+            for name in self.names:
+                if name not in pending and self.nodes[name].ready():
+                    self.watch.request(name, "configure")
+                    pending[name] = self.nodes[name].transition_async("configure")
+            if self.failures:
+                raise Failure(self.failures[0])
+            if time.monotonic() > deadline:
+                late = [n for n in self.names if n not in pending]
+                if late:
+                    raise Failure(
+                        f"no lifecycle services of {late[0]} within "
+                        f"{self.p.transition_timeout_s:g} s"
+                    )
+                silent = next(n for n in self.names if not pending[n].done())
+                raise Failure(f"{silent}: configure no answer (see its log)")
+            rclpy.spin_once(self.node, timeout_sec=POLL_S)
+        for name in self.names:  # in table order: the first refusal is the one named
+            if not pending[name].result().success:
+                raise Failure(f"{name}: configure failed (see its log)")
+            self.watch.settle(name, TRANSITION_GOALS["configure"])
+            self.emit("transition", node=name, transition="configure")
+
+    def set_plant(self, plants: list[str]) -> None:
+        """``plant_nodes`` on every node, in parallel."""
         timeout = self.p.transition_timeout_s
         for name in self.names:
-            self.spin_until(self.nodes[name].ready, timeout, f"no lifecycle services of {name}")
-        for name in self.names:
-            self.transition(name, "configure")
+            self.spin_until(self.nodes[name].params_ready, timeout, f"{name}: plant_nodes not set")
+        futures = {n: self.nodes[n].set_strings_async("plant_nodes", plants) for n in self.names}
+        for name, future in futures.items():
+            self.spin_until(future.done, timeout, f"{name}: plant_nodes not set")
+            result = future.result()
+            if result is None or not all(r.successful for r in result.results):
+                raise Failure(f"{name}: plant_nodes not set")
+
+    def bring_up(self, stop: list[int]) -> None:
+        self.configure_all()
         self.check_identities()
         plants = self.find_plant()
-        for name in self.names:
-            if not self.nodes[name].set_strings("plant_nodes", plants, timeout):
-                raise Failure(f"{name}: plant_nodes not set")
+        self.set_plant(plants)
         self.emit("configured", plant_nodes=plants)
         if self.p.hold:
             self.emit("holding")
@@ -209,13 +248,19 @@ class LifecycleManager:
             return None
 
     def run(self, stop: list[int]) -> None:
-        """Watch until ``stop`` or a line ``stop``."""
-        while not stop and self.command() != "stop":
+        """Watch until ``stop`` or a line ``stop [NODE ...]`` (the nodes named there
+        have exited already: attitude-run saw their processes end)."""
+        while not stop:
+            words = (self.command() or "").split()
+            if words[:1] == ["stop"]:
+                self.gone.update(words[1:])
+                return
             rclpy.spin_once(self.node, timeout_sec=POLL_S)
 
     def bring_down(self) -> None:
-        """Deactivate, then shut down, in reverse order; a node that is gone is skipped."""
-        alive = self.alive()
+        """Deactivate, then shut down, in reverse order; a node that is gone (exited,
+        or not in the graph) is skipped."""
+        alive = self.alive() - self.gone
         order = [n for n in bring_down_order(self.names) if n in alive]
         for label in ("deactivate", "shutdown"):
             for name in order:
@@ -236,6 +281,7 @@ def main(args: list[str] | None = None) -> int:
     parent = os.getppid()
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, lambda n, f: stop.append(n))
+    dds_profile.apply()  # before rclpy.init: the stack's discovery timing
     rclpy.init(
         args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO
     )
@@ -263,7 +309,7 @@ def main(args: list[str] | None = None) -> int:
         manager.emit("down")
         node.destroy_node()
         rclpy.try_shutdown()
-    return code
+    exit_process(code)  # the process ends here: no interpreter teardown (see there)
 
 
 if __name__ == "__main__":

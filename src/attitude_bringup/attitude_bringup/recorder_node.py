@@ -171,7 +171,7 @@ class BagRecorderNode(StackNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run(BagRecorderNode, args)
+    return run(BagRecorderNode, args, fast_exit=True)
 
 
 if __name__ == "__main__":

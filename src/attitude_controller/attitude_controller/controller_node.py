@@ -107,7 +107,7 @@ class PdControllerNode(StackNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run(PdControllerNode, args)
+    return run(PdControllerNode, args, fast_exit=True)
 
 
 if __name__ == "__main__":

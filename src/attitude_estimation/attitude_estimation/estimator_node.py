@@ -165,7 +165,7 @@ class MekfEstimatorNode(StackNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run(MekfEstimatorNode, args)
+    return run(MekfEstimatorNode, args, fast_exit=True)
 
 
 if __name__ == "__main__":

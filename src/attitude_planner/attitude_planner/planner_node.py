@@ -162,7 +162,7 @@ class FepfPlannerNode(StackNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run(FepfPlannerNode, args)
+    return run(FepfPlannerNode, args, fast_exit=True)
 
 
 if __name__ == "__main__":

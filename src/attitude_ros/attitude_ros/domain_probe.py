@@ -17,6 +17,8 @@ import time
 import rclpy
 from rclpy.signals import SignalHandlerOptions
 
+from attitude_ros import dds_profile
+
 _NAME = "_attitude_run_domain_probe"  # a leading underscore: hidden from other tools
 SETTLE_S = 0.5
 """The node list must stay unchanged this long (discovery still arriving otherwise)."""
@@ -27,6 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="domain_probe")
     parser.add_argument("--wait-s", type=float, default=1.0)
     args = parser.parse_args(argv)
+    dds_profile.apply()  # announces as the stack's nodes do (they answer it at once)
     rclpy.init(args=[], signal_handler_options=SignalHandlerOptions.NO)
     try:
         node = rclpy.create_node(_NAME)

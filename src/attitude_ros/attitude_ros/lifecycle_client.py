@@ -4,7 +4,6 @@ its parameters (``rcl_interfaces``), driven from one rclpy node by spinning it."
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -74,18 +73,19 @@ class LifecycleClient:
         response = self._call(self.change, request, timeout_s)
         return None if response is None else bool(response.success)
 
-    def set_strings(self, key: str, values: Sequence[str], timeout_s: float) -> bool:
-        """Set a string-array parameter; whether the node took it."""
-        if not self.params.wait_for_services(timeout_sec=timeout_s):
-            return False
+    def transition_async(self, label: str) -> Any:
+        """Request the transition ``label`` without waiting: the future of the
+        ``ChangeState`` response (the caller spins the node)."""
+        return self.change.call_async(ChangeState.Request(transition=Transition(label=label)))
+
+    def set_strings_async(self, key: str, values: Sequence[str]) -> Any:
+        """Set a string-array parameter without waiting: the future of the
+        ``SetParameters`` response (the caller spins the node; the service must be ready,
+        see :meth:`params_ready`)."""
         value = list(values) or [""]
         param = Parameter(key, Parameter.Type.STRING_ARRAY, value)  # type: ignore[no-untyped-call]
-        future: Any = self.params.set_parameters([param])
-        deadline = time.monotonic() + timeout_s
-        while not future.done() and time.monotonic() < deadline:
-            if self.executor is not None:
-                self.executor.spin_once(timeout_sec=0.05)
-            else:
-                rclpy.spin_once(self.node, timeout_sec=0.05)
-        result = future.result() if future.done() else None
-        return result is not None and all(r.successful for r in result.results)
+        return self.params.set_parameters([param])
+
+    def params_ready(self) -> bool:
+        """Whether the node's parameter services are discovered."""
+        return bool(self.params.services_are_ready())

@@ -15,11 +15,13 @@ it SIGTERM (``attitude_tools.run.processes``), and, as a second line (e.g. with 
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import sys
 import time
 from collections.abc import Callable
+from typing import NoReturn
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
@@ -32,6 +34,7 @@ from attitude_core.config.parameters import ParameterError
 from attitude_core.config.scenario import ScenarioError
 from attitude_core.contract.exit_codes import EXIT_BAD_INPUT, EXIT_FAILURE, EXIT_OK  # noqa: F401
 from attitude_core.runtime.process_identity import OWNER_ENV, ProcessIdentity
+from attitude_ros import dds_profile
 
 OWNER_CHECK_S = 0.5
 
@@ -63,19 +66,51 @@ class OwnerWatchdog:
         return True
 
 
-def run(node_factory: Callable[[], Node], args: list[str] | None = None) -> int:
+def run(
+    node_factory: Callable[[], Node], args: list[str] | None = None, *, fast_exit: bool = False
+) -> int:
     """Create the node with ``node_factory()``, spin it, and return the exit code.
 
     The node may set ``node.done = True`` to end the loop (end of a scenario) and
     ``node.exit_code``; it may define ``close()``, which runs on every way out
     (normal end, SIGINT, SIGTERM, exception), e.g. to finish a recording, and
     ``drained()``, polled after SIGINT/SIGTERM while queued messages are still taken.
+
+    ``fast_exit`` (a node's executable): once the node is closed and ROS 2 shut down
+    (the DDS participant destroyed, so its peers see it leave at once), the process
+    ends with :func:`exit_process` instead of returning: no interpreter teardown, a
+    fifth of a second less for each node at the end of every run.
     """
+    code = _run(node_factory, args)
+    if fast_exit:
+        exit_process(code)
+    return code
+
+
+def exit_process(code: int) -> NoReturn:
+    """End this process now with ``code``, after ROS 2 is shut down: stdout and stderr
+    flushed, the default context destroyed (its DDS participant announces its end),
+    then ``os._exit`` (Python's teardown of its modules skipped; nothing of ours is
+    left to flush: a node's files are closed by its ``close``)."""
+    import rclpy
+
+    rclpy.try_shutdown()
+    context = rclpy.get_default_context()
+    if context.handle is not None:
+        context.destroy()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):  # a closed pipe: nothing to save
+            stream.flush()
+    os._exit(code)
+
+
+def _run(node_factory: Callable[[], Node], args: list[str] | None) -> int:
     stop = []
     previous = {
         s: signal.signal(s, lambda signum, frame: stop.append(signum))
         for s in (signal.SIGINT, signal.SIGTERM)
     }
+    dds_profile.apply()  # before rclpy.init: the stack's discovery timing
     try:
         rclpy.init(
             args=sys.argv if args is None else args, signal_handler_options=SignalHandlerOptions.NO

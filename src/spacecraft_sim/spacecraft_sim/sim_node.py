@@ -166,7 +166,7 @@ class RigidBodySimNode(StackNode):
 
 
 def main(args: list[str] | None = None) -> int:
-    return run(RigidBodySimNode, args)
+    return run(RigidBodySimNode, args, fast_exit=True)
 
 
 if __name__ == "__main__":

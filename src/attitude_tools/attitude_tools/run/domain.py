@@ -23,6 +23,8 @@ import random
 import socket
 from collections.abc import Mapping
 
+from attitude_core.runtime import discovery
+
 __all__ = [
     "DOMAIN_PORT_BASE",
     "DOMAIN_IDS",
@@ -93,11 +95,11 @@ def reserve_domain() -> DomainReservation:
     )
 
 
-PROBE_WAIT_S = 3.2
+PROBE_WAIT_S = discovery.PROBE_WAIT_S
 """Discovery time the busy-domain probe allows, s. Localhost discovery usually takes
 0.1 s, but a participant that misses the probe's first announcements is only found at
-its next periodic one: Fast DDS announces every 3 s (measured: some nodes of a live run
-found after 2.7-2.9 s)."""
+its next periodic one: the stack's nodes announce every 0.5 s (Fast DDS's default is
+3 s; measured then: some nodes of a live run found after 2.7-2.9 s)."""
 
 
 class DomainBusyError(RuntimeError):
@@ -129,30 +131,26 @@ def alive_nodes(
 def claim_domain(env: dict[str, str], python: str) -> DomainReservation | None:
     """Pick the run's domain in ``env`` (in place) and check it is free of other runs.
 
-    With ``ROS_DOMAIN_ID`` set, that domain is used as is; without, a free one is
-    reserved (the caller releases the returned reservation at the end of the run).
+    Without ``ROS_DOMAIN_ID``, a free domain is reserved (the caller releases the
+    returned reservation at the end of the run) and not probed: every run and every
+    test takes the same lock, so no other run can be there (a node started by hand on
+    that ID, outside the lock, is still caught by the run guards, named as a foreign
+    publisher). With ``ROS_DOMAIN_ID`` set, that domain is used as is, after a probe:
     DomainBusyError names the nodes of another run alive there.
     """
     from attitude_core.runtime.run_identity import Endpoint, foreign_run_nodes
 
-    reservation = None
     if not env.get("ROS_DOMAIN_ID", "").strip():
         reservation = reserve_domain()
         env["ROS_DOMAIN_ID"] = str(reservation.id)
-    try:
-        nodes = [Endpoint(ns, name) for ns, name in alive_nodes(env, python)]
-        others = foreign_run_nodes(nodes, own_namespace=None)
-    except BaseException:
-        if reservation is not None:
-            reservation.release()
-        raise
+        return reservation
+    nodes = [Endpoint(ns, name) for ns, name in alive_nodes(env, python)]
+    others = foreign_run_nodes(nodes, own_namespace=None)
     if others:
-        if reservation is not None:
-            reservation.release()
         names = ", ".join(e.node for e in others)
         raise DomainBusyError(
             f"ROS_DOMAIN_ID={env['ROS_DOMAIN_ID']}: nodes of another run are alive: {names}; "
             "stop them, or choose another ROS_DOMAIN_ID (unset it and attitude-run "
             "reserves a free one)"
         )
-    return reservation
+    return None

@@ -1,7 +1,7 @@
 """``attitude-run``'s end of the run's lifecycle manager process
 (``attitude_bringup lifecycle_manager``): its events, read from its stdout on a thread
 (:func:`attitude_core.runtime.bringup.parse_event`), and its commands on its stdin
-(``activate`` after a hold, ``stop``)."""
+(``activate`` after a hold, ``stop`` with the nodes that have exited already)."""
 
 from __future__ import annotations
 
@@ -16,10 +16,11 @@ __all__ = ["ManagerLink"]
 
 
 class ManagerLink:
-    """The manager process ``proc`` (stdin and stdout pipes)."""
+    """The manager process ``proc`` (stdin and stdout pipes) of the nodes ``names``
+    (role -> fully qualified node name)."""
 
-    def __init__(self, proc: subprocess.Popen[bytes]) -> None:
-        self.proc = proc
+    def __init__(self, proc: subprocess.Popen[bytes], names: dict[str, str]) -> None:
+        self.proc, self.names = proc, names
         self.queue: queue.Queue[dict[str, Any]] = queue.Queue()
         self.seen: list[dict[str, Any]] = []
         threading.Thread(target=self._read, daemon=True).start()

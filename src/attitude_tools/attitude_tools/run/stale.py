@@ -27,7 +27,6 @@ from pathlib import Path
 from attitude_core.config.scenario import ScenarioError
 from attitude_core.runtime.process_identity import ProcessIdentity
 from attitude_tools.bag.recovery import recover_bag
-from attitude_tools.bag.run_record import run_from_bag, summarize_bag
 from attitude_tools.output.rundir import OWNER_FILE, publish, stale_stages
 from attitude_tools.output.strict_json import dump_strict
 
@@ -50,6 +49,8 @@ def _has_data(bag: Path) -> bool:
 
 
 def _salvage(stale: Path, out: Path) -> str:
+    from attitude_tools.bag.run_record import run_from_bag, summarize_bag  # rarely needed
+
     record = json.loads((stale / OWNER_FILE).read_text())
     owner = ProcessIdentity.decode(record["owner"])
     lost = f"attitude-run (pid {owner.pid}, started {record['started_utc']}) died before finishing"

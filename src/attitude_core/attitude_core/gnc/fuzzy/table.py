@@ -13,6 +13,7 @@ from typing import NoReturn, Self
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.gnc.fuzzy import table_cache
 from attitude_core.gnc.fuzzy.mamdani import MamdaniFis
 from attitude_core.gnc.fuzzy.refine import refine_1d, refine_2d
 from attitude_core.gnc.fuzzy.spec import FisError
@@ -105,14 +106,25 @@ class FisTable:
         base = [np.linspace(lo, hi, n) for (lo, hi), n in zip(unis, counts, strict=True)]
         if ndim == 1:
             axes, vals, err = refine_1d(fis.evaluate_grid, base[0], tol, cap)
-            tab: FisTable = _FisTable1D()
         else:
             axes, vals, err = refine_2d(fis.evaluate_grid, base[0], base[1], tol, cap)
-            tab = _FisTable2D()
+        return FisTable.assemble(fis, tuple(axes), vals, err, tol)
+
+    @staticmethod
+    def assemble(
+        fis: MamdaniFis,
+        axes: tuple[_Floats, ...],
+        vals: _Floats,
+        err: float,
+        tol: float | None,
+    ) -> FisTable:
+        """The table of ``fis`` on the knots ``axes`` with the values ``vals`` (as
+        :meth:`build` computed them, or as the disk cache kept them)."""
+        tab: FisTable = _FisTable1D() if len(axes) == 1 else _FisTable2D()
         tab.name = fis.name
         tab.input_names = fis.input_names
         tab.output_name = fis.output_name
-        tab.universes = unis
+        tab.universes = fis.input_universes
         tab.tol = tol
         tab.max_abs_error_estimate = err
         for a in (*axes, vals):
@@ -123,7 +135,7 @@ class FisTable:
         tab._kx = axes[0].tolist()
         tab._ix = (1.0 / np.diff(axes[0])).tolist()
         tab._lox, tab._hix = tab._kx[0], tab._kx[-1]
-        if ndim == 2:
+        if len(axes) == 2:
             tab._ky = axes[1].tolist()
             tab._iy = (1.0 / np.diff(axes[1])).tolist()
             tab._loy, tab._hiy = tab._ky[0], tab._ky[-1]
@@ -204,14 +216,22 @@ class _FisTable2D(FisTable):
 
 @functools.lru_cache(maxsize=32)
 def _table_from_json(spec_json: str, label: str) -> FisTable:
-    return MamdaniFis(json.loads(spec_json), label=label).table()
+    fis = MamdaniFis(json.loads(spec_json), label=label)
+    key = table_cache.cache_key(spec_json, "table()")  # the default build arguments
+    cached = table_cache.load(key, len(fis.input_names))
+    if cached is not None:
+        return FisTable.assemble(fis, *cached)
+    table = fis.table()
+    table_cache.store(key, (table.axes, table.values, table.max_abs_error_estimate, table.tol))
+    return table
 
 
 def lookup_table(fis: MamdaniFis) -> FisTable:
-    """Hot-path table of ``fis``, built once per process for each distinct definition.
+    """Hot-path table of ``fis``, built once per machine for each distinct definition.
 
     Building a refined 2-input table takes a few tenths of a second; planners built
-    again and again (batch runs, restarts) share it. The cache key is the full
-    definition, so an edited FIS file gets its own table.
+    again and again (batch runs, restarts, every node start) share it: in this process
+    and, through :mod:`.table_cache`, on disk. The cache key is the full definition and
+    the builder's code, so an edited FIS file gets its own table.
     """
     return _table_from_json(json.dumps(fis.spec, sort_keys=True), fis.label)
