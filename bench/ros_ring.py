@@ -133,7 +133,6 @@ def planner(steps: int) -> None:
     values = [KeyValue(key=key, value=repr(0.123456789012345)) for key in d.KEYS]
     diag.status = [DiagnosticStatus(name=d.STATUS_NAME, hardware_id=d.HARDWARE_ID, values=values)]
     seen: dict[int, set[str]] = {}
-    last = [0]
 
     def on_state(name: str, msg) -> None:
         key = _key(msg)
@@ -148,11 +147,10 @@ def planner(steps: int) -> None:
         pub_rate.publish(rate)
         pub_margin.publish(margin)
         pub_diag.publish(diag)
-        last[0] = key
 
     for name in (c.ATTITUDE, c.ANGULAR_VELOCITY):
         subscription(node, name, lambda msg, name=name: on_state(name, msg))
-    _spin(node, lambda: last[0] >= (steps - 1) * DT_NS)
+    _spin(node, lambda: False)  # until the ring is over (terminated by ring_once)
 
 
 def controller(steps: int) -> None:
@@ -163,7 +161,6 @@ def controller(steps: int) -> None:
     pub = publisher(node, c.TORQUE)
     torque = message(c.TORQUE)
     seen: dict[int, set[str]] = {}
-    last = [0]
 
     def taker(name: str):
         def on_message(msg) -> None:
@@ -175,13 +172,12 @@ def controller(steps: int) -> None:
             del seen[key]
             torque.header.stamp = msg.header.stamp
             pub.publish(torque)
-            last[0] = key
 
         return on_message
 
     for name in (c.ATTITUDE, c.ANGULAR_VELOCITY, c.TARGET_MRP, c.TARGET_RATE):
         subscription(node, name, taker(name))
-    _spin(node, lambda: last[0] >= (steps - 1) * DT_NS)
+    _spin(node, lambda: False)  # until the ring is over (terminated by ring_once)
 
 
 def recorder(steps: int) -> None:
@@ -217,12 +213,11 @@ def ring_once(steps: int, env: dict[str, str], with_recorder: bool = False) -> f
     }
     try:
         out, _ = procs["plant"].communicate(timeout=120.0)
-        for role in ("planner", "controller"):
-            procs[role].wait(timeout=30.0)
-    finally:
+    finally:  # the others answer until the plant is done (then they are stopped)
         for p in procs.values():
             if p.poll() is None:
                 p.kill()
+            p.wait()
     if procs["plant"].returncode != 0:
         raise RuntimeError(f"ring plant exited {procs['plant'].returncode}")
     rate_s: float = json.loads(out)["steps_per_s"]

@@ -21,7 +21,7 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from typing import NoReturn
+from typing import Any, NoReturn
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
@@ -122,6 +122,7 @@ def _run(node_factory: Callable[[], Node], args: list[str] | None) -> int:
             signal.signal(s, handler)
         return EXIT_BAD_INPUT
     node = None
+    executor: Any = None
     code = EXIT_OK
     try:
         node = node_factory()
@@ -164,6 +165,8 @@ def _run(node_factory: Callable[[], Node], args: list[str] | None) -> int:
                 close()
                 if code == EXIT_OK:  # closing can fail too (a bag finished on a full disk)
                     code = getattr(node, "exit_code", EXIT_OK)
+            if executor is not None:  # before the node goes: it holds the node's entities
+                executor.shutdown()
             node.destroy_node()  # type: ignore[no-untyped-call]  # unannotated in rclpy
         if rclpy_ok():
             rclpy.shutdown()
