@@ -76,10 +76,10 @@ def run(
     (normal end, SIGINT, SIGTERM, exception), e.g. to finish a recording, and
     ``drained()``, polled after SIGINT/SIGTERM while queued messages are still taken.
 
-    ``fast_exit`` (a node's executable): once the node is closed and ROS 2 shut down
-    (the DDS participant destroyed, so its peers see it leave at once), the process
-    ends with :func:`exit_process` instead of returning: no interpreter teardown, a
-    fifth of a second less for each node at the end of every run.
+    ``fast_exit`` (a node's executable): once the node is closed and destroyed (its
+    peers see it leave the graph at once) and ROS 2 is shut down, the process ends with
+    :func:`exit_process` instead of returning: no interpreter teardown, a fifth of a
+    second less for each node at the end of every run.
     """
     code = _run(node_factory, args)
     if fast_exit:
@@ -88,10 +88,12 @@ def run(
 
 
 def exit_process(code: int) -> NoReturn:
-    """End this process now with ``code``, after ROS 2 is shut down: stdout and stderr
-    flushed, the default context destroyed (its DDS participant announces its end),
-    then ``os._exit`` (Python's teardown of its modules skipped; nothing of ours is
-    left to flush: a node's files are closed by its ``close``)."""
+    """End this process now with ``code``: ROS 2 shut down and the default context
+    destroyed, stdout and stderr flushed, then ``os._exit`` (Python's teardown of its
+    modules skipped; nothing of ours is left to flush: a node's files are closed by its
+    ``close``). Destroy the nodes first: their destruction is what removes them from
+    the peers' graph; without it they stay listed until the participant's lease (10 s)
+    runs out."""
     import rclpy
 
     rclpy.try_shutdown()

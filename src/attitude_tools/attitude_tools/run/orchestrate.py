@@ -297,18 +297,20 @@ def _node_names(namespace: str, started: list[NodeSpec[Any]]) -> dict[str, str]:
     return {spec.role: f"{namespace.rstrip('/')}/{spec.node_name}" for spec in started}
 
 
-def _manager_args(req: RunRequest, inputs: CheckedInputs, namespace: str) -> list[str]:
-    """The lifecycle manager's parameters: the nodes in activation order, the plant."""
-    names = list(_node_names(namespace, inputs.started).values())
+def _manager_args(
+    req: RunRequest, inputs: CheckedInputs, namespace: str, names: dict[str, str]
+) -> list[str]:
+    """The lifecycle manager's parameters: the nodes ``names`` (role -> fully qualified
+    name, :func:`_node_names`) in activation order, the plant."""
     if req.plant == PLANT_SIM:
-        plants: tuple[str, ...] = (f"{namespace.rstrip('/')}/{graph.SIMULATOR.node_name}",)
+        plants: tuple[str, ...] = (names[graph.SIMULATOR.role],)
     else:
         plants = req.plant_nodes
     topics = (IMU, STAR_TRACKER) if inputs.nodes.sensing else (ATTITUDE, ANGULAR_VELOCITY)
     timeout_s = req.plant_timeout_s if req.plant == PLANT_EXTERNAL else 60.0
     return [
         "-r", f"__ns:={namespace}",
-        "-p", f"node_names:={_string_list(names)}",
+        "-p", f"node_names:={_string_list(list(names.values()))}",
         "-p", f"plant_nodes:={_string_list(plants)}",
         "-p", f"plant_topics:={_string_list(list(topics))}",
         "-p", f"plant_timeout_s:={float(timeout_s)!r}",
@@ -337,7 +339,7 @@ def _start_nodes(
         )
     names = _node_names(staged.namespace, inputs.started)
     link = ManagerLink(
-        nodes.start(graph.MANAGER, _manager_args(req, inputs, staged.namespace), piped=True),
+        nodes.start(graph.MANAGER, _manager_args(req, inputs, staged.namespace, names), piped=True),
         names,
     )
     env, namespace, time_mode = staged.env, staged.namespace, req.time_mode
