@@ -75,7 +75,7 @@ from attitude_core.config.scenario_schema import (
     SENSOR_REQUIRED,
     group_names_param,
 )
-from attitude_core.gnc.constraints import EXACT_SAMPLES, ConeGeometry
+from attitude_core.gnc.constraints import ConeGeometry
 from attitude_core.gnc.ephemeris import Orbit, parse_epoch_utc
 from attitude_core.gnc.fepf import DirectionAxis, PlannerVariant, PlanningFrame
 from attitude_core.gnc.knowledge import PERFECT, Knowledge, knowledge_of
@@ -367,8 +367,9 @@ class Scenario:
 
     def exact_geometry(self) -> ConeGeometry:
         """The uninflated geometry, for exact margins (which do not depend on the rim
-        sampling: :data:`~attitude_core.gnc.constraints.EXACT_SAMPLES`)."""
-        return self.cone_geometry(samples=EXACT_SAMPLES)
+        sampling: :data:`~attitude_core.gnc.constraints.EXACT_SAMPLES`): the sky's own,
+        made once and shared."""
+        return self.sky.exact_geometry
 
     @property
     def constraint_names(self) -> tuple[str, ...]:

@@ -44,11 +44,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import cast
+from typing import Any, cast
 
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.gnc import kernels
 from attitude_core.gnc.mrp import (
     Vec3,
     Vec3Like,
@@ -285,6 +286,39 @@ class ConeGeometry:
             )
         )
         self._build_rim_circles()
+        self._kernel = self._make_kernel()
+
+    def _make_kernel(self) -> Any:
+        """The compiled form of the exact margins and the rim search (None: the Python
+        reference runs), fed this geometry's constraints and rim circles as rows."""
+        if kernels.compiled is None:
+            return None
+        keep_out = np.column_stack(
+            [
+                self.boresights_body[self.pair_instrument],
+                self.directions_inertial[self.pair_object],
+                self.pair_angles_deg,
+            ]
+        ).reshape(-1, 7)
+        keep_in = np.column_stack(
+            [self.keep_in_axes_body, self.keep_in_directions_inertial, self.keep_in_max_angles_deg]
+        ).reshape(-1, 7)
+        circles = np.column_stack(
+            [
+                self._centres,
+                self._normals,
+                self._c_dot_c,
+                self._c_dot_n,
+                self._r2,
+                self._two_radii,
+            ]
+        ).reshape(-1, 10)
+        return kernels.compiled.ConeKernel(
+            np.ascontiguousarray(keep_out, dtype=float),
+            np.ascontiguousarray(keep_in, dtype=float),
+            np.ascontiguousarray(circles, dtype=float),
+            self.samples,
+        )
 
     # --- exact margins --------------------------------------------------------
 
@@ -339,10 +373,14 @@ class ConeGeometry:
         return smallest
 
     def min_margin_deg_single(self, sigma_bn: Vec3Like) -> float:
-        """Smallest exact margin for one attitude, degrees.
+        """Smallest exact margin for one attitude, degrees: the hot-path form of
+        :meth:`min_margin_deg` (compiled; :meth:`min_margin_deg_single_reference`)."""
+        if self._kernel is not None:
+            return float(self._kernel.min_margin_deg(sigma_bn))
+        return self.min_margin_deg_single_reference(sigma_bn)
 
-        Hot-path form of :meth:`min_margin_deg` in plain floats (no array overhead).
-        """
+    def min_margin_deg_single_reference(self, sigma_bn: Vec3Like) -> float:
+        """:meth:`min_margin_deg_single` in plain Python floats (no array overhead)."""
         r0, r1, r2 = dcm_rows_from_mrp(sigma_bn)  # b = C^T s = sum_r s_r C[r, :]
         best = math.inf
         for (a, b, c), groups in self._instruments_py:
@@ -387,10 +425,17 @@ class ConeGeometry:
 
     def arc_min_margin_deg_single(self, sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
         """Smallest exact margin over every constraint along the short eigenaxis rotation
-        from ``sigma_a`` to ``sigma_b`` (all of it, closed form), degrees."""
+        from ``sigma_a`` to ``sigma_b`` (all of it, closed form), degrees (compiled;
+        :meth:`arc_min_margin_deg_single_reference`)."""
+        if self._kernel is not None:
+            return float(self._kernel.arc_min_margin_deg(sigma_a, sigma_b))
+        return self.arc_min_margin_deg_single_reference(sigma_a, sigma_b)
+
+    def arc_min_margin_deg_single_reference(self, sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
+        """:meth:`arc_min_margin_deg_single` in plain Python floats."""
         (e1, e2, e3), angle = short_rotation_single(sigma_a, sigma_b)
         if angle == 0.0:
-            return self.min_margin_deg_single(sigma_a)
+            return self.min_margin_deg_single_reference(sigma_a)
         cos_t, sin_t = math.cos(angle), math.sin(angle)
         best = math.inf
 
@@ -401,7 +446,8 @@ class ConeGeometry:
             b = start - a
             cc = x * (e2 * vz - e3 * vy) + y * (e3 * vx - e1 * vz) + z * (e1 * vy - e2 * vx)
             end = a + b * cos_t + cc * sin_t
-            r = math.hypot(b, cc)
+            r = math.sqrt(b * b + cc * cc)  # b, cc = O(1): no hypot needed, and C's sqrt
+            # rounds as the compiled kernel's does (CPython's hypot has its own algorithm)
             phi = math.atan2(cc, b) % _TWO_PI
             hi = a + r if phi <= angle else max(start, end)
             lo = a - r if (phi + math.pi) % _TWO_PI <= angle else min(start, end)
@@ -541,13 +587,11 @@ class ConeGeometry:
         Accurate to second order in the rim spacing; the sign is negative when
         ``sigma`` is inside an inflated region.
         """
-        d2 = self.rim_distances_sq(sigma)
-        idx = int(np.argmin(d2))
-        k = self.samples
-        pair, j = divmod(idx, k)
-        base = pair * k
-        jm, jp = base + (j - 1) % k, base + (j + 1) % k
-        f0, fm, fp = float(d2[idx]), float(d2[jm]), float(d2[jp])
+        if self._kernel is not None:
+            idx, f0, fm, fp, jm, jp = self._kernel.closest_rim(sigma)
+        else:
+            idx, f0, fm, fp, jm, jp = self.closest_rim_reference(sigma)
+        pair = idx // self.samples
         # Parabola through (-1, fm), (0, f0), (1, fp): vertex offset t in [-1/2, 1/2].
         curv = fm - 2.0 * f0 + fp
         t = 0.0
@@ -569,6 +613,18 @@ class ConeGeometry:
             dist, norm = -dist, -norm
         direction = np.array([vx / norm, vy / norm, vz / norm]) if norm != 0.0 else np.zeros(3)
         return ObstacleQuery(dist, direction, np.array([px, py, pz]), pair)
+
+    def closest_rim_reference(self, sigma: Vec3Like) -> tuple[int, float, float, float, int, int]:
+        """The rim circle nearest ``sigma`` and its neighbours on the same rim,
+        ``(index, d2, d2_before, d2_after, index_before, index_after)`` (``d2``: squared
+        MRP distances): the reference of the compiled search."""
+        d2 = self.rim_distances_sq(sigma)
+        idx = int(np.argmin(d2))
+        k = self.samples
+        base = (idx // k) * k
+        j = idx - base
+        jm, jp = base + (j - 1) % k, base + (j + 1) % k
+        return idx, float(d2[idx]), float(d2[jm]), float(d2[jp]), jm, jp
 
     def _closest_on_circle(self, idx: int, sx: float, sy: float, sz: float) -> Vec3:
         """Closest point to ``(sx, sy, sz)`` on precomputed rim circle ``idx``."""

@@ -5,6 +5,8 @@ relative to the target frame R, short way, ``|sigma_e| <= 1``) and
 ``omega_e = omega_B - C_BR omega_R`` (target rate mapped into body axes).
 Gains default to ``Kp = 5.5 J``, ``Kd = 3.1 J`` (paper Table 1). With an actuator
 bound the command is scaled into it, direction kept (:func:`commanded_torque`).
+:func:`commanded_torque` runs the compiled kernel (:mod:`attitude_core.gnc.kernels`);
+:func:`pd_torque` with ``scale_to_bound`` is its reference.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.gnc import kernels
 from attitude_core.gnc.actuators import scale_to_bound
 from attitude_core.gnc.mrp import dcm_from_mrp_single, relative
 
@@ -24,6 +27,8 @@ class PdGains:
     def __init__(self, kp: np.ndarray, kd: np.ndarray) -> None:
         self.kp = np.asarray(kp, dtype=float).reshape(3, 3)
         self.kd = np.asarray(kd, dtype=float).reshape(3, 3)
+        self.kp_flat = tuple(self.kp.ravel().tolist())  # row-major, for the kernel
+        self.kd_flat = tuple(self.kd.ravel().tolist())
 
     @classmethod
     def from_inertia(
@@ -68,5 +73,11 @@ def commanded_torque(
 ) -> npt.NDArray[np.float64]:
     """The controller's command: eq. 11, scaled into ``max_torque_nm`` (per body axis,
     N m; None: unlimited) with its direction kept (``actuators.scale_to_bound``)."""
-    u, _ = scale_to_bound(pd_torque(gains, sigma_bn, omega_b, sigma_rn, omega_r), max_torque_nm)
-    return u
+    k = kernels.compiled
+    if k is None:
+        u, _ = scale_to_bound(pd_torque(gains, sigma_bn, omega_b, sigma_rn, omega_r), max_torque_nm)
+        return u
+    u1, u2, u3, _ = k.pd_command(
+        gains.kp_flat, gains.kd_flat, sigma_bn, omega_b, sigma_rn, omega_r, max_torque_nm
+    )
+    return np.array((u1, u2, u3))

@@ -3,6 +3,8 @@
 State ``x = (sigma_bn, omega_b)``; torque ``u`` in body axes, N m, held constant over a
 step (zero-order hold). Integration is classical RK4; after each step the MRP set is
 switched to its shadow when ``|sigma| > 1`` (eq. 2), so ``|sigma_bn| <= 1`` always.
+:meth:`RigidBody.step` runs the compiled kernel (:mod:`attitude_core.gnc.kernels`);
+:meth:`RigidBody.step_reference` is its reference, the same operations in Python.
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.gnc import kernels
 from attitude_core.gnc.mrp import Vec3, Vec3Like, mrp_rate, mrp_rate_single, to_principal
 
 __all__ = ["RigidBody", "state_derivative"]
@@ -37,9 +40,23 @@ class RigidBody:
         self.omega_b: _Floats = np.asarray(omega_b, dtype=float).copy()
         self._j_rows = tuple(map(tuple, self.inertia.tolist()))
         self._ji_rows = tuple(map(tuple, self.inertia_inv.tolist()))
+        self._j_flat = tuple(self.inertia.ravel().tolist())
+        self._ji_flat = tuple(self.inertia_inv.ravel().tolist())
 
     def step(self, torque_b: Vec3Like, dt: float) -> None:
-        """Advance by ``dt`` seconds with torque ``torque_b`` held constant (RK4).
+        """Advance by ``dt`` seconds with torque ``torque_b`` held constant (RK4)."""
+        k = kernels.compiled
+        if k is None:
+            self.step_reference(torque_b, dt)
+            return
+        sigma, omega = k.rk4_step(
+            self._j_flat, self._ji_flat, self.sigma_bn, self.omega_b, torque_b, dt
+        )
+        self.sigma_bn = np.array(sigma)
+        self.omega_b = np.array(omega)
+
+    def step_reference(self, torque_b: Vec3Like, dt: float) -> None:
+        """:meth:`step` in Python: advance by ``dt`` seconds with ``torque_b`` held (RK4).
 
         Written in plain floats (one body per call is the hot path of every run);
         :func:`state_derivative` is the array form of the same equations.

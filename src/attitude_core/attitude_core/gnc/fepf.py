@@ -171,7 +171,7 @@ def buffer_deg(scenario: Scenario, sigma_0: Vec3Like) -> float:
     time, :mod:`attitude_core.gnc.goal_watch`). With declared sensors the knowledge
     3-sigma (:attr:`Scenario.knowledge`) is added to ``safety_margin_deg``: the true
     boresight may be that far from the estimated one."""
-    exact = scenario.cone_geometry()
+    exact = scenario.exact_geometry()  # margins only: no fine rim sampling needed
     ends = [np.asarray(sigma_0, dtype=float)]
     if scenario.sky.static:
         ends.append(scenario.desired_mrp)

@@ -75,7 +75,7 @@ import math
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Future
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -553,7 +553,8 @@ class Guidance:
                 rate = safe
                 omega_t = omega_from_mrp_rate_single(sigma_t, safe)
             self.omega_prev = omega_t
-            out = replace(out, sigma_t_dot=np.array(rate), omega_t=omega_t)
+            # ``out`` is this step's own (propose makes a new one each call): set in place
+            out.sigma_t_dot, out.omega_t = np.array(rate), omega_t
         else:
             self.omega_prev = np.zeros(3)
             if planner.status == PlannerStatus.STUCK:
@@ -564,9 +565,8 @@ class Guidance:
             if self.knowledge.decision_window_s > 0.0:
                 decide = self._window_mean(float(t_s), sigma_bn, omega_b)
             self._judge(dt, e_goal, decide)
-        return GuidanceOutput(
-            replace(out, status=self.status), e_track, e_goal, factor, self.derating
-        )
+        out.status = self.status
+        return GuidanceOutput(out, e_track, e_goal, factor, self.derating)
 
     # ------------------------------------------------------------------------------
 

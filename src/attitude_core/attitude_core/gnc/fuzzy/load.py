@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -42,7 +43,14 @@ def load_fis(source: str | Path | Mapping[str, Any]) -> MamdaniFis:
                 f"{label}: no such file (and not a packaged FIS; packaged: "
                 f"{', '.join(packaged_fis_files())})"
             )
-    content = path.read_text(encoding="utf-8")
+    return _from_text(path.read_text(encoding="utf-8"), label)
+
+
+@functools.lru_cache(maxsize=16)
+def _from_text(content: str, label: str) -> MamdaniFis:
+    """The FIS of a file's text, parsed once per process for each text: a
+    :class:`MamdaniFis` does not change after it is made, so every planner of a batch
+    or a campaign worker shares it (an edited file is a new text, parsed anew)."""
     try:
         spec = load_strict(content)
     except yaml.YAMLError as exc:

@@ -1,0 +1,37 @@
+# Types of the compiled kernels (gnc/_kernels.pyx); see that module's docstring.
+from collections.abc import Sequence
+
+import numpy as np
+import numpy.typing as npt
+
+_Vec = Sequence[float] | npt.NDArray[np.float64]
+
+def pd_command(
+    kp: tuple[float, ...],
+    kd: tuple[float, ...],
+    sigma_bn: _Vec,
+    omega_b: _Vec,
+    sigma_rn: _Vec,
+    omega_r: _Vec,
+    bound: Sequence[float] | None,
+) -> tuple[float, float, float, bool]: ...
+def rk4_step(
+    inertia: tuple[float, ...],
+    inertia_inv: tuple[float, ...],
+    sigma_bn: _Vec,
+    omega_b: _Vec,
+    torque_b: _Vec,
+    dt: float,
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]: ...
+
+class ConeKernel:
+    def __init__(
+        self,
+        keep_out: npt.NDArray[np.float64],
+        keep_in: npt.NDArray[np.float64],
+        circles: npt.NDArray[np.float64],
+        samples: int,
+    ) -> None: ...
+    def min_margin_deg(self, sigma_bn: _Vec) -> float: ...
+    def arc_min_margin_deg(self, sigma_a: _Vec, sigma_b: _Vec) -> float: ...
+    def closest_rim(self, sigma: _Vec) -> tuple[int, float, float, float, int, int]: ...

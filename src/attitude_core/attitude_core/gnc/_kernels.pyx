@@ -1,0 +1,391 @@
+# cython: language_level=3, boundscheck=False, wraparound=False, cdivision=True
+# cython: initializedcheck=False, embedsignature=True
+"""Compiled per-step kernels of the closed loop (C through Cython, built ahead of time).
+
+Each function is the compiled form of a Python reference that stays in the core and is
+what the tests compare against (``tests/core/test_kernels.py``):
+
+* :func:`pd_command`: eq. 11 with the controller's bound (``gnc.control.pd_torque``
+  then ``gnc.actuators.scale_to_bound``);
+* :func:`rk4_step`: one RK4 step of eqs. 3-4 with the shadow switch of eq. 2
+  (``gnc.dynamics.RigidBody.step``, the same operations in the same order);
+* :class:`ConeKernel`: a geometry's exact keep-out / keep-in margins at an attitude and
+  along a short eigenaxis rotation (``ConeGeometry.min_margin_deg_single`` /
+  ``arc_min_margin_deg_single``), and the nearest MRP-space rim circle
+  (``ConeGeometry.rim_distances_sq`` and the search of ``closest_obstacle``).
+
+Arithmetic is IEEE double without contraction (``-ffp-contract=off``), in the
+references' order where they are plain floats, with libm's functions as Python's
+``math`` calls them (``pow`` too: ``-fno-builtin-pow`` keeps ``x ** 2`` a library call),
+so those agree to the last bit; where a
+reference goes through NumPy matrix products (the PD law, the rim distances) the sums
+may round differently in the last bit.
+"""
+
+from libc.math cimport acos, atan2, cos, fabs, fmod, pow, sin, sqrt, copysign, INFINITY
+
+cdef double _PI = 3.141592653589793
+cdef double _TWO_PI = 2.0 * 3.141592653589793
+cdef double _RAD_TO_DEG = 180.0 / 3.141592653589793
+
+
+cdef inline double _pymod(double a, double b) noexcept nogil:
+    """Python's float ``a % b`` (the result takes the sign of ``b``)."""
+    cdef double m = fmod(a, b)
+    if m != 0.0:
+        if (b < 0.0) != (m < 0.0):
+            m += b
+    else:
+        m = copysign(0.0, b)
+    return m
+
+
+cdef inline double _clip1(double x) noexcept nogil:
+    """``min(max(x, -1.0), 1.0)``."""
+    if x < -1.0:
+        x = -1.0
+    if x > 1.0:
+        x = 1.0
+    return x
+
+
+cdef inline void _dcm_rows(double s1, double s2, double s3, double* r) noexcept nogil:
+    """Rows of ``C_BN(sigma)`` into ``r[0..8]`` (``mrp.dcm_rows_from_mrp``)."""
+    cdef double ss = s1 * s1 + s2 * s2 + s3 * s3
+    # pow, as Python's ``** 2`` (libm's pow, which can differ from p * p in the last bit)
+    cdef double p2 = pow(1.0 + ss, 2.0)
+    cdef double k8 = 8.0 / p2
+    cdef double k4 = 4.0 * (1.0 - ss) / p2
+    r[0] = 1.0 + k8 * (s1 * s1 - ss)
+    r[1] = k8 * s1 * s2 + k4 * s3
+    r[2] = k8 * s1 * s3 - k4 * s2
+    r[3] = k8 * s2 * s1 - k4 * s3
+    r[4] = 1.0 + k8 * (s2 * s2 - ss)
+    r[5] = k8 * s2 * s3 + k4 * s1
+    r[6] = k8 * s3 * s1 + k4 * s2
+    r[7] = k8 * s3 * s2 - k4 * s1
+    r[8] = 1.0 + k8 * (s3 * s3 - ss)
+
+
+cdef inline void _relative_euler(
+    double b1, double b2, double b3, double r1, double r2, double r3, double* q
+) noexcept nogil:
+    """Unnormalised ``q_B/R`` (``mrp.relative_euler_single``)."""
+    cdef double r0 = 1.0 - (r1 * r1 + r2 * r2 + r3 * r3)
+    cdef double b0 = 1.0 - (b1 * b1 + b2 * b2 + b3 * b3)
+    r1, r2, r3 = 2.0 * r1, 2.0 * r2, 2.0 * r3
+    b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
+    q[0] = r0 * b0 + r1 * b1 + r2 * b2 + r3 * b3
+    q[1] = r0 * b1 - b0 * r1 - (r2 * b3 - r3 * b2)
+    q[2] = r0 * b2 - b0 * r2 - (r3 * b1 - r1 * b3)
+    q[3] = r0 * b3 - b0 * r3 - (r1 * b2 - r2 * b1)
+
+
+cdef inline void _relative(
+    double b1, double b2, double b3, double r1, double r2, double r3, double* out
+) noexcept nogil:
+    """``sigma_B/R``, short way (``mrp.relative_single``)."""
+    cdef double q[4]
+    _relative_euler(b1, b2, b3, r1, r2, r3, q)
+    cdef double sb = b1 * b1 + b2 * b2 + b3 * b3
+    cdef double sr = r1 * r1 + r2 * r2 + r3 * r3
+    cdef double norm = (1.0 + sb) * (1.0 + sr)
+    cdef double k
+    if q[0] >= 0.0:
+        k = 1.0 / (norm + q[0])
+    else:
+        k = -1.0 / (norm - q[0])
+    out[0] = q[1] * k
+    out[1] = q[2] * k
+    out[2] = q[3] * k
+
+
+def pd_command(
+    tuple kp, tuple kd, sigma_bn, omega_b, sigma_rn, omega_r, bound
+):
+    """Eq. 11 scaled into the bound: ``(u1, u2, u3, saturated)``, N m, body axes.
+
+    ``kp``, ``kd``: the gain matrices row-major (9 floats); ``sigma_rn``, ``omega_r``:
+    the target and its rate in target axes; ``bound``: 3 per-axis limits or None.
+    """
+    cdef double g[9]
+    cdef double d[9]
+    cdef int i
+    for i in range(9):
+        g[i] = kp[i]
+        d[i] = kd[i]
+    cdef double e[3]
+    cdef double c[9]
+    _relative(sigma_bn[0], sigma_bn[1], sigma_bn[2], sigma_rn[0], sigma_rn[1], sigma_rn[2], e)
+    _dcm_rows(e[0], e[1], e[2], c)
+    cdef double o1 = omega_r[0], o2 = omega_r[1], o3 = omega_r[2]
+    cdef double w1 = omega_b[0] - (c[0] * o1 + c[1] * o2 + c[2] * o3)
+    cdef double w2 = omega_b[1] - (c[3] * o1 + c[4] * o2 + c[5] * o3)
+    cdef double w3 = omega_b[2] - (c[6] * o1 + c[7] * o2 + c[8] * o3)
+    cdef double u[3]
+    for i in range(3):
+        u[i] = -(g[3 * i] * e[0] + g[3 * i + 1] * e[1] + g[3 * i + 2] * e[2]) - (
+            d[3 * i] * w1 + d[3 * i + 1] * w2 + d[3 * i + 2] * w3
+        )
+    if bound is None:
+        return u[0], u[1], u[2], False
+    cdef double ratio = fabs(u[0]) / <double>bound[0]
+    cdef double r
+    for i in range(1, 3):
+        r = fabs(u[i]) / <double>bound[i]
+        if r > ratio:
+            ratio = r
+    if ratio <= 1.0:
+        return u[0], u[1], u[2], False
+    return u[0] / ratio, u[1] / ratio, u[2] / ratio, True
+
+
+cdef inline void _deriv(
+    const double* j, const double* ji, const double* u, const double* s, const double* w,
+    double* ds, double* dw
+) noexcept nogil:
+    """Eqs. 3-4: ``(sigma_dot, omega_dot)`` (the reference's ``deriv``)."""
+    cdef double w1 = w[0], w2 = w[1], w3 = w[2]
+    cdef double h1 = j[0] * w1 + j[1] * w2 + j[2] * w3
+    cdef double h2 = j[3] * w1 + j[4] * w2 + j[5] * w3
+    cdef double h3 = j[6] * w1 + j[7] * w2 + j[8] * w3
+    cdef double r1 = u[0] - (w2 * h3 - w3 * h2)
+    cdef double r2 = u[1] - (w3 * h1 - w1 * h3)
+    cdef double r3 = u[2] - (w1 * h2 - w2 * h1)
+    dw[0] = ji[0] * r1 + ji[1] * r2 + ji[2] * r3
+    dw[1] = ji[3] * r1 + ji[4] * r2 + ji[5] * r3
+    dw[2] = ji[6] * r1 + ji[7] * r2 + ji[8] * r3
+    cdef double s1 = s[0], s2 = s[1], s3 = s[2]
+    cdef double ss = s1 * s1 + s2 * s2 + s3 * s3
+    cdef double sw = s1 * w1 + s2 * w2 + s3 * w3
+    cdef double a = 1.0 - ss
+    ds[0] = 0.25 * (a * w1 + 2.0 * (s2 * w3 - s3 * w2) + 2.0 * s1 * sw)
+    ds[1] = 0.25 * (a * w2 + 2.0 * (s3 * w1 - s1 * w3) + 2.0 * s2 * sw)
+    ds[2] = 0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw)
+
+
+def rk4_step(tuple inertia, tuple inertia_inv, sigma_bn, omega_b, torque_b, double dt):
+    """One RK4 step of eqs. 3-4 with ``torque_b`` held, then the shadow switch (eq. 2):
+    ``(sigma_bn, omega_b)`` after ``dt`` seconds as two 3-tuples. ``inertia``,
+    ``inertia_inv``: ``J`` and ``J^-1`` row-major (9 floats)."""
+    cdef double j[9]
+    cdef double ji[9]
+    cdef int i
+    for i in range(9):
+        j[i] = inertia[i]
+        ji[i] = inertia_inv[i]
+    cdef double u[3]
+    cdef double s0[3]
+    cdef double w0[3]
+    for i in range(3):
+        u[i] = torque_b[i]
+        s0[i] = sigma_bn[i]
+        w0[i] = omega_b[i]
+    cdef double k1s[3]
+    cdef double k1w[3]
+    cdef double k2s[3]
+    cdef double k2w[3]
+    cdef double k3s[3]
+    cdef double k3w[3]
+    cdef double k4s[3]
+    cdef double k4w[3]
+    cdef double xs[3]
+    cdef double xw[3]
+    cdef double h = 0.5 * dt
+    _deriv(j, ji, u, s0, w0, k1s, k1w)
+    for i in range(3):
+        xs[i] = s0[i] + h * k1s[i]
+        xw[i] = w0[i] + h * k1w[i]
+    _deriv(j, ji, u, xs, xw, k2s, k2w)
+    for i in range(3):
+        xs[i] = s0[i] + h * k2s[i]
+        xw[i] = w0[i] + h * k2w[i]
+    _deriv(j, ji, u, xs, xw, k3s, k3w)
+    for i in range(3):
+        xs[i] = s0[i] + dt * k3s[i]
+        xw[i] = w0[i] + dt * k3w[i]
+    _deriv(j, ji, u, xs, xw, k4s, k4w)
+    cdef double f = dt / 6.0
+    cdef double s[3]
+    cdef double w[3]
+    for i in range(3):
+        s[i] = s0[i] + f * (k1s[i] + 2.0 * k2s[i] + 2.0 * k3s[i] + k4s[i])
+        w[i] = w0[i] + f * (k1w[i] + 2.0 * k2w[i] + 2.0 * k3w[i] + k4w[i])
+    cdef double ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
+    if ss > 1.0:
+        for i in range(3):
+            s[i] = -s[i] / ss
+    return (s[0], s[1], s[2]), (w[0], w[1], w[2])
+
+
+cdef double _min_margin(
+    const double[:, ::1] keep_out, const double[:, ::1] keep_in, const double* r
+) noexcept nogil:
+    """Smallest exact margin at the attitude with DCM rows ``r`` (deg)."""
+    cdef Py_ssize_t p
+    cdef double best = INFINITY, bx, by, bz, cosang, m
+    for p in range(keep_out.shape[0]):
+        bx = keep_out[p, 0] * r[0] + keep_out[p, 1] * r[3] + keep_out[p, 2] * r[6]
+        by = keep_out[p, 0] * r[1] + keep_out[p, 1] * r[4] + keep_out[p, 2] * r[7]
+        bz = keep_out[p, 0] * r[2] + keep_out[p, 1] * r[5] + keep_out[p, 2] * r[8]
+        cosang = bx * keep_out[p, 3] + by * keep_out[p, 4] + bz * keep_out[p, 5]
+        m = acos(_clip1(cosang)) * _RAD_TO_DEG - keep_out[p, 6]
+        if m < best:
+            best = m
+    for p in range(keep_in.shape[0]):
+        bx = keep_in[p, 0] * r[0] + keep_in[p, 1] * r[3] + keep_in[p, 2] * r[6]
+        by = keep_in[p, 0] * r[1] + keep_in[p, 1] * r[4] + keep_in[p, 2] * r[7]
+        bz = keep_in[p, 0] * r[2] + keep_in[p, 1] * r[5] + keep_in[p, 2] * r[8]
+        cosang = _clip1(bx * keep_in[p, 3] + by * keep_in[p, 4] + bz * keep_in[p, 5])
+        m = keep_in[p, 6] - acos(cosang) * _RAD_TO_DEG
+        if m < best:
+            best = m
+    return best
+
+
+cdef inline void _extremes(
+    double e1, double e2, double e3, double cos_t, double sin_t, double angle,
+    double vx, double vy, double vz, double x, double y, double z, double* out
+) noexcept nogil:
+    """``(largest, smallest)`` of ``c . v(phi)`` for ``phi`` in ``[0, angle]``."""
+    cdef double a = (e1 * vx + e2 * vy + e3 * vz) * (e1 * x + e2 * y + e3 * z)
+    cdef double start = x * vx + y * vy + z * vz
+    cdef double b = start - a
+    cdef double cc = x * (e2 * vz - e3 * vy) + y * (e3 * vx - e1 * vz) + z * (e1 * vy - e2 * vx)
+    cdef double end = a + b * cos_t + cc * sin_t
+    cdef double r = sqrt(b * b + cc * cc)
+    cdef double phi = _pymod(atan2(cc, b), _TWO_PI)
+    if phi <= angle:
+        out[0] = a + r
+    else:
+        out[0] = start if start > end else end
+    if _pymod(phi + _PI, _TWO_PI) <= angle:
+        out[1] = a - r
+    else:
+        out[1] = start if start < end else end
+
+
+cdef inline double _circle_d2(
+    const double[:, ::1] c, Py_ssize_t i, double sx, double sy, double sz, double s2
+) noexcept nogil:
+    """Squared distance from ``sigma`` to circle ``i``, in ``rim_distances_sq``'s order:
+    ``|sigma - centre|^2 - 2 r rho + r^2`` with ``rho`` the radial offset."""
+    cdef double dd = -2.0 * (c[i, 0] * sx + c[i, 1] * sy + c[i, 2] * sz) + c[i, 6]
+    dd = dd + s2
+    cdef double h = (c[i, 3] * sx + c[i, 4] * sy + c[i, 5] * sz) - c[i, 7]
+    h = dd - h * h
+    if h < 0.0:
+        h = 0.0
+    h = sqrt(h) * c[i, 9]
+    dd = dd + c[i, 8]
+    dd = dd - h
+    return dd if dd > 0.0 else 0.0
+
+
+cdef class ConeKernel:
+    """The exact margins and the MRP-space rim search of one ``ConeGeometry``.
+
+    ``keep_out`` rows: boresight (body), object direction (inertial), angle (deg);
+    ``keep_in`` rows: body axis, inertial direction, largest angle (deg); ``circles``
+    rows: centre (3), unit normal (3), ``centre . centre``, ``centre . normal``,
+    ``radius^2``, ``2 radius``, the circles of a rim consecutive, ``samples`` per rim.
+    """
+
+    cdef const double[:, ::1] keep_out
+    cdef const double[:, ::1] keep_in
+    cdef const double[:, ::1] circles
+    cdef Py_ssize_t samples
+
+    def __init__(
+        self,
+        const double[:, ::1] keep_out,
+        const double[:, ::1] keep_in,
+        const double[:, ::1] circles,
+        Py_ssize_t samples,
+    ):
+        if keep_out.shape[1] != 7 or keep_in.shape[1] != 7 or circles.shape[1] != 10:
+            raise ValueError("ConeKernel: rows of 7, 7 and 10 values expected")
+        if samples < 1 or circles.shape[0] % samples != 0:
+            raise ValueError("ConeKernel: circles must be whole rims of `samples` each")
+        self.keep_out = keep_out
+        self.keep_in = keep_in
+        self.circles = circles
+        self.samples = samples
+
+    def min_margin_deg(self, sigma_bn):
+        """Smallest exact margin at ``sigma_bn`` over every constraint, degrees
+        (``ConeGeometry.min_margin_deg_single``)."""
+        cdef double r[9]
+        _dcm_rows(sigma_bn[0], sigma_bn[1], sigma_bn[2], r)
+        return _min_margin(self.keep_out, self.keep_in, r)
+
+    def arc_min_margin_deg(self, sigma_a, sigma_b):
+        """Smallest exact margin along the short eigenaxis rotation from ``sigma_a`` to
+        ``sigma_b``, closed form (``ConeGeometry.arc_min_margin_deg_single``), degrees."""
+        cdef const double[:, ::1] keep_out = self.keep_out
+        cdef const double[:, ::1] keep_in = self.keep_in
+        cdef double a1 = sigma_a[0], a2 = sigma_a[1], a3 = sigma_a[2]
+        cdef double q[4]
+        _relative_euler(sigma_b[0], sigma_b[1], sigma_b[2], a1, a2, a3, q)
+        if q[0] < 0.0:
+            q[0], q[1], q[2], q[3] = -q[0], -q[1], -q[2], -q[3]
+        cdef double n = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+        cdef double r[9]
+        _dcm_rows(a1, a2, a3, r)
+        if n == 0.0:
+            return _min_margin(keep_out, keep_in, r)
+        cdef double angle = 2.0 * atan2(n, q[0])
+        if angle == 0.0:
+            return _min_margin(keep_out, keep_in, r)
+        cdef double f1 = q[1] / n, f2 = q[2] / n, f3 = q[3] / n
+        cdef double e1 = f1 * r[0] + f2 * r[3] + f3 * r[6]
+        cdef double e2 = f1 * r[1] + f2 * r[4] + f3 * r[7]
+        cdef double e3 = f1 * r[2] + f2 * r[5] + f3 * r[8]
+        cdef double cos_t = cos(angle), sin_t = sin(angle)
+        cdef double best = INFINITY, vx, vy, vz, m
+        cdef double ext[2]
+        cdef Py_ssize_t p
+        for p in range(keep_out.shape[0]):
+            vx = keep_out[p, 0] * r[0] + keep_out[p, 1] * r[3] + keep_out[p, 2] * r[6]
+            vy = keep_out[p, 0] * r[1] + keep_out[p, 1] * r[4] + keep_out[p, 2] * r[7]
+            vz = keep_out[p, 0] * r[2] + keep_out[p, 1] * r[5] + keep_out[p, 2] * r[8]
+            _extremes(e1, e2, e3, cos_t, sin_t, angle, vx, vy, vz,
+                      keep_out[p, 3], keep_out[p, 4], keep_out[p, 5], ext)
+            m = acos(_clip1(ext[0])) * _RAD_TO_DEG - keep_out[p, 6]
+            if m < best:
+                best = m
+        for p in range(keep_in.shape[0]):
+            vx = keep_in[p, 0] * r[0] + keep_in[p, 1] * r[3] + keep_in[p, 2] * r[6]
+            vy = keep_in[p, 0] * r[1] + keep_in[p, 1] * r[4] + keep_in[p, 2] * r[7]
+            vz = keep_in[p, 0] * r[2] + keep_in[p, 1] * r[5] + keep_in[p, 2] * r[8]
+            _extremes(e1, e2, e3, cos_t, sin_t, angle, vx, vy, vz,
+                      keep_in[p, 3], keep_in[p, 4], keep_in[p, 5], ext)
+            m = keep_in[p, 6] - acos(_clip1(ext[1])) * _RAD_TO_DEG
+            if m < best:
+                best = m
+        return best
+
+    def closest_rim(self, sigma):
+        """The rim circle nearest ``sigma`` and its two neighbours on the same rim:
+        ``(index, d2, d2_before, d2_after, index_before, index_after)``, ``d2`` the
+        squared MRP distances (``ConeGeometry.rim_distances_sq`` and its argmin)."""
+        cdef const double[:, ::1] circles = self.circles
+        cdef Py_ssize_t samples = self.samples
+        cdef double sx = sigma[0], sy = sigma[1], sz = sigma[2]
+        cdef double s2 = sx * sx + sy * sy + sz * sz
+        cdef Py_ssize_t i, best_i = 0
+        cdef double best = INFINITY
+        cdef double d2
+        for i in range(circles.shape[0]):
+            d2 = _circle_d2(circles, i, sx, sy, sz, s2)
+            if d2 < best:  # the first of equal distances, as argmin
+                best = d2
+                best_i = i
+        cdef Py_ssize_t base = (best_i // samples) * samples
+        cdef Py_ssize_t j = best_i - base
+        cdef Py_ssize_t jm = base + (j - 1 + samples) % samples
+        cdef Py_ssize_t jp = base + (j + 1) % samples
+        return (
+            best_i, best, _circle_d2(circles, jm, sx, sy, sz, s2),
+            _circle_d2(circles, jp, sx, sy, sz, s2), jm, jp,
+        )
