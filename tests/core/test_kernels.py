@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc import kernels
+from attitude_core.gnc import kernels, mrp
 from attitude_core.gnc.actuators import scale_to_bound
 from attitude_core.gnc.constraints import ConeGeometry, KeepInCones
 from attitude_core.gnc.control import PdGains, commanded_torque, pd_torque
@@ -63,6 +63,16 @@ def test_pd_command_matches_eq11_and_the_bound(sigma, omega, sigma_t, omega_t, s
     np.testing.assert_array_equal(
         commanded_torque(gains, sigma, omega, sigma_t, omega_t, bound), (u1, u2, u3)
     )
+
+
+@settings(max_examples=500, deadline=None)
+@given(vec, vec)
+def test_mrp_helpers_are_the_references_to_the_bit(sigma_a, sigma_b):
+    assert mrp.angle_between_single(sigma_a, sigma_b) == mrp.angle_between_single_reference(
+        sigma_a, sigma_b
+    )
+    assert mrp.relative_single(sigma_a, sigma_b) == mrp.relative_single_reference(sigma_a, sigma_b)
+    assert mrp.angle_between_single(sigma_a, sigma_a) == 0.0
 
 
 @settings(max_examples=300, deadline=None)
@@ -142,7 +152,7 @@ _LOOP = """
 import json, sys
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc import kernels
+from attitude_core.gnc import kernels, mrp
 r = run_closed_loop(load_scenario(sys.argv[1]))
 print(json.dumps({"active": kernels.ACTIVE, "sigma": r.sigma_bn.tolist(),
     "omega": r.omega_b.tolist(), "torque": r.torque_b.tolist(), "sigma_t": r.sigma_t.tolist(),

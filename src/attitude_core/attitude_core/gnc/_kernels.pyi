@@ -6,6 +6,8 @@ import numpy.typing as npt
 
 _Vec = Sequence[float] | npt.NDArray[np.float64]
 
+def angle_between(sigma_a: _Vec, sigma_b: _Vec) -> float: ...
+def relative(sigma_bn: _Vec, sigma_rn: _Vec) -> tuple[float, float, float]: ...
 def pd_command(
     kp: tuple[float, ...],
     kd: tuple[float, ...],

@@ -5,6 +5,8 @@
 Each function is the compiled form of a Python reference that stays in the core and is
 what the tests compare against (``tests/core/test_kernels.py``):
 
+* :func:`angle_between`, :func:`relative`: ``mrp.angle_between_single`` and
+  ``mrp.relative_single``;
 * :func:`pd_command`: eq. 11 with the controller's bound (``gnc.control.pd_torque``
   then ``gnc.actuators.scale_to_bound``);
 * :func:`rk4_step`: one RK4 step of eqs. 3-4 with the shadow switch of eq. 2
@@ -98,6 +100,30 @@ cdef inline void _relative(
     out[0] = q[1] * k
     out[1] = q[2] * k
     out[2] = q[3] * k
+
+
+def angle_between(sigma_a, sigma_b):
+    """Principal angle (rad, ``[0, pi]``) between two attitudes
+    (``mrp.angle_between_single_reference``)."""
+    cdef double a1 = sigma_a[0], a2 = sigma_a[1], a3 = sigma_a[2]
+    cdef double b1 = sigma_b[0], b2 = sigma_b[1], b3 = sigma_b[2]
+    cdef double sa = a1 * a1 + a2 * a2 + a3 * a3
+    cdef double sb = b1 * b1 + b2 * b2 + b3 * b3
+    cdef double a0 = 1.0 - sa, b0 = 1.0 - sb
+    a1, a2, a3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
+    b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
+    cdef double w = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
+    cdef double v1 = b0 * a1 - a0 * b1 - (a2 * b3 - a3 * b2)
+    cdef double v2 = b0 * a2 - a0 * b2 - (a3 * b1 - a1 * b3)
+    cdef double v3 = b0 * a3 - a0 * b3 - (a1 * b2 - a2 * b1)
+    return 2.0 * atan2(sqrt(v1 * v1 + v2 * v2 + v3 * v3), fabs(w))
+
+
+def relative(sigma_bn, sigma_rn):
+    """``sigma_B/R``, short way, as a 3-tuple (``mrp.relative_single_reference``)."""
+    cdef double out[3]
+    _relative(sigma_bn[0], sigma_bn[1], sigma_bn[2], sigma_rn[0], sigma_rn[1], sigma_rn[2], out)
+    return out[0], out[1], out[2]
 
 
 def pd_command(

@@ -16,10 +16,12 @@ Every function accepts a single 3-vector or a stack ``(..., 3)``.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import numpy.typing as npt
+
+from attitude_core.gnc.kernels import compiled as _K
 
 __all__ = [
     "skew",
@@ -196,7 +198,7 @@ def relative_euler_single(sigma_bn: Vec3Like, sigma_rn: Vec3Like) -> tuple[float
     )
 
 
-def angle_between_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
+def angle_between_single_reference(sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
     """Principal angle (rad, ``[0, pi]``) of the rotation between two attitudes, in plain
     floats (hot path; equals ``principal_angle(relative(sigma_a, sigma_b))``).
 
@@ -219,7 +221,7 @@ def angle_between_single(sigma_a: Vec3Like, sigma_b: Vec3Like) -> float:
     return 2.0 * math.atan2(math.sqrt(v1 * v1 + v2 * v2 + v3 * v3), abs(w))
 
 
-def relative_single(sigma_bn: Vec3Like, sigma_rn: Vec3Like) -> Vec3:
+def relative_single_reference(sigma_bn: Vec3Like, sigma_rn: Vec3Like) -> Vec3:
     """``sigma_B/R`` (short way, ``|sigma| <= 1``) in plain floats: the hot-path form of
     :func:`relative`, through :func:`relative_euler_single`."""
     w, v1, v2, v3 = relative_euler_single(sigma_bn, sigma_rn)
@@ -230,6 +232,15 @@ def relative_single(sigma_bn: Vec3Like, sigma_rn: Vec3Like) -> Vec3:
     norm = (1.0 + sb) * (1.0 + sr)
     k = 1.0 / (norm + w) if w >= 0.0 else -1.0 / (norm - w)
     return (v1 * k, v2 * k, v3 * k)
+
+
+# The hot-path forms: the compiled kernels when built (gnc.kernels), else the references.
+angle_between_single: Callable[[Vec3Like, Vec3Like], float] = (
+    angle_between_single_reference if _K is None else _K.angle_between
+)
+relative_single: Callable[[Vec3Like, Vec3Like], Vec3] = (
+    relative_single_reference if _K is None else _K.relative
+)
 
 
 def compose(sigma_outer: npt.ArrayLike, sigma_inner: npt.ArrayLike) -> _Floats:
