@@ -53,6 +53,7 @@ from attitude_core.gnc import kernels
 from attitude_core.gnc.mrp import (
     Vec3,
     Vec3Like,
+    cross3,
     dcm_from_mrp,
     dcm_rows_from_mrp,
     quat_mul_sf,
@@ -90,9 +91,9 @@ def _unit_rows(v: npt.ArrayLike) -> _Floats:
 
 def _unit_perpendicular(v: _Floats) -> _Floats:
     """A unit vector normal to the unit vector ``v``."""
-    p: _Floats = np.cross(v, [1.0, 0.0, 0.0])
+    p: _Floats = cross3(v, [1.0, 0.0, 0.0])
     if np.linalg.norm(p) < 0.5:
-        p = np.cross(v, [0.0, 1.0, 0.0])
+        p = cross3(v, [0.0, 1.0, 0.0])
     return p / np.linalg.norm(p)
 
 
@@ -136,7 +137,7 @@ def arc_cos_extremes(
     a = ev * np.einsum("...i,...i->...", axis, c)
     at_start = np.einsum("...i,...i->...", c, v0)
     b = at_start - a
-    cc = np.einsum("...i,...i->...", c, np.cross(axis, v0))
+    cc = np.einsum("...i,...i->...", c, cross3(axis, v0))
     at_end = a + b * np.cos(angle) + cc * np.sin(angle)
     r = np.hypot(b, cc)
     phi = np.mod(np.arctan2(cc, b), 2.0 * np.pi)
@@ -529,7 +530,7 @@ class ConeGeometry:
         ]
         for s, c, beta in cones:
             e1 = _unit_perpendicular(c)
-            e2 = np.cross(c, e1)
+            e2 = cross3(c, e1)
             # Body-vector directions on the cone rim, inertial axes: (k, 3). A rim sample
             # on the body vector itself has the identity on its fibre, which the MRP map
             # sends to a line (a circle of infinite radius): sample half a step over.
@@ -650,7 +651,7 @@ def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floa
     k = len(b_inertial)
     # Passive rotation taking inertial b to body s: q0 = normalise(1 + b.s, s x b).
     w = 1.0 + b_inertial @ s_body
-    v = np.cross(np.broadcast_to(s_body, b_inertial.shape), b_inertial)
+    v = cross3(np.broadcast_to(s_body, b_inertial.shape), b_inertial)
     q_base = np.concatenate([w[:, None], v], axis=1)
     anti = w < 1e-9  # b = -s: rotate by pi about any axis normal to s
     if np.any(anti):
@@ -682,11 +683,11 @@ def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floa
     a_pt, b_pt, c_pt = best_pts
     u = a_pt - c_pt
     v = b_pt - c_pt
-    uxv = np.cross(u, v)
+    uxv = cross3(u, v)
     nrm2 = np.einsum("ij,ij->i", uxv, uxv)
     uu = np.einsum("ij,ij->i", u, u)[:, None]
     vv = np.einsum("ij,ij->i", v, v)[:, None]
-    centre = c_pt + np.cross(uu * v - vv * u, uxv) / (2.0 * nrm2[:, None])
+    centre = c_pt + cross3(uu * v - vv * u, uxv) / (2.0 * nrm2[:, None])
     radius = np.linalg.norm(centre - c_pt, axis=1)
     normal = uxv / np.sqrt(nrm2)[:, None]
     return centre, normal, radius

@@ -13,7 +13,7 @@ import numpy as np
 import numpy.typing as npt
 
 from attitude_core.gnc import kernels
-from attitude_core.gnc.mrp import Vec3, Vec3Like, mrp_rate, mrp_rate_single, to_principal
+from attitude_core.gnc.mrp import Vec3, Vec3Like, cross3, mrp_rate, mrp_rate_single, to_principal
 
 __all__ = ["RigidBody", "state_derivative"]
 
@@ -24,7 +24,7 @@ def state_derivative(
     inertia: _Floats, inertia_inv: _Floats, sigma: _Floats, omega: _Floats, torque: _Floats
 ) -> tuple[_Floats, _Floats]:
     """``(sigma_dot, omega_dot)`` with ``J omega_dot = -omega x J omega + u`` (eq. 4)."""
-    omega_dot = inertia_inv @ (torque - np.cross(omega, inertia @ omega))
+    omega_dot = inertia_inv @ (torque - cross3(omega, inertia @ omega))
     return mrp_rate(sigma, omega), omega_dot
 
 

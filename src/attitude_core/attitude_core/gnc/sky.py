@@ -45,7 +45,7 @@ from attitude_core.gnc.ephemeris import (
     body_directions,
     sun_moon_geocentric_km,
 )
-from attitude_core.gnc.mrp import Vec3Like, dcm_from_mrp
+from attitude_core.gnc.mrp import Vec3Like, cross3, dcm_from_mrp
 
 __all__ = ["Motion", "Sky", "RATE_SAMPLE_S", "RATE_BOUND_FACTOR"]
 
@@ -83,7 +83,7 @@ def _rotated(c0: _Floats, rate: _Floats, t: _Floats) -> _Floats:
     axis = rate / size
     angle = size * t[..., None]
     cos, sin = np.cos(angle), np.sin(angle)
-    out: _Floats = c0 * cos + np.cross(axis, c0) * sin + axis * float(axis @ c0) * (1.0 - cos)
+    out: _Floats = c0 * cos + cross3(axis, c0) * sin + axis * float(axis @ c0) * (1.0 - cos)
     return out
 
 
