@@ -8,7 +8,9 @@ Prints figures and their ratio to the aims (planner step median <= 50 us, offlin
 Case 1 <= 0.5 s wall, measured in a warm process as a batch worker runs it), the
 guidance update that the planner node calls around each step (no aim of its own), and
 the cold command-line run (interpreter start, imports and the one-off FIS table build
-included). Not a test: timings depend on the machine.
+included), and the closed-loop step with the compiled kernels against the Python
+references (``ATTITUDE_KERNELS=python``, in another process). Not a test: timings
+depend on the machine.
 """
 
 import argparse
@@ -25,6 +27,7 @@ import numpy as np
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.config.scenario import load_scenario
 from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc import kernels
 from attitude_core.gnc.fepf import FepfPlanner
 from attitude_core.gnc.guidance import Guidance
 from attitude_core.gnc.mekf import Mekf, MekfConfig
@@ -92,6 +95,34 @@ def _offline_wall(scenario, repeats):
     return statistics.median(walls)
 
 
+_REFERENCE_RUN = """
+import statistics, sys, time
+from attitude_core.closed_loop import run_closed_loop
+from attitude_core.config.scenario import load_scenario
+sc = load_scenario(sys.argv[1])
+run_closed_loop(sc)
+walls = []
+for _ in range(int(sys.argv[2])):
+    t0 = time.perf_counter()
+    run_closed_loop(sc)
+    walls.append(time.perf_counter() - t0)
+print(statistics.median(walls))
+"""
+
+
+def _reference_wall(repeats):
+    """Warm offline Case 1 wall median with the Python references (another process)."""
+    env = dict(os.environ, **{kernels.ENV: "python"})
+    out = subprocess.run(
+        [sys.executable, "-c", _REFERENCE_RUN, f"{ROOT}/scenarios/case1.yaml", str(repeats)],
+        env=env,
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    return float(out.stdout)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--repeats", type=int, default=5)
@@ -121,6 +152,13 @@ def main():
         f"offline case1: {case1.n_steps} steps, {case1.sim_time_s:.0f} s simulated, "
         f"wall median {wall:.3f} s (min {min(walls):.3f})  "
         f"sim/wall {case1.sim_time_s / wall:.0f}x  wall/aim {wall / AIM_CASE1_WALL_S:.2f}"
+    )
+    per_step = 1e6 * wall / (case1.n_steps + 1)
+    reference = _reference_wall(args.repeats)
+    print(
+        f"closed-loop step (guidance, control, dynamics, record), case1: {per_step:.1f} us "
+        f"with the {kernels.ACTIVE} kernels; Python references (ATTITUDE_KERNELS=python) "
+        f"{1e6 * reference / (case1.n_steps + 1):.1f} us (reference/this {reference / wall:.2f}x)"
     )
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
