@@ -88,6 +88,27 @@ def test_quaternion_is_ros_orientation(sigma):
     )
 
 
+quat4 = arrays(np.float64, 4, elements=finite).filter(lambda q: np.linalg.norm(q) > 1e-3)
+
+
+@given(vec3)
+def test_single_quaternion_from_mrp_matches_array_form(sigma):
+    # the nodes' per-message form: the same quaternion as the array form, w >= 0
+    q = mrp.quat_from_mrp_single(sigma)
+    np.testing.assert_allclose(q, mrp.quat_from_mrp(sigma), rtol=0.0, atol=4e-16)
+    assert q[3] >= 0.0
+
+
+@given(quat4)
+def test_single_mrp_from_quaternion_matches_array_form(q):
+    # normalised first, |sigma| <= 1: the same MRP as the array form
+    sigma = mrp.mrp_from_quat_single(*q)
+    np.testing.assert_allclose(sigma, mrp.mrp_from_quat(q), rtol=0.0, atol=1e-15)
+    assert np.linalg.norm(sigma) <= 1.0 + 1e-15
+    expected = Rotation.from_quat(q).as_matrix().T  # C_BN of the body orientation q
+    np.testing.assert_allclose(mrp.dcm_from_mrp_single(sigma), expected, atol=1e-12)
+
+
 def test_principal_angle_definition():
     # sigma = e tan(Phi / 4)  (eq. 1)
     e = np.array([0.0, 0.6, 0.8])

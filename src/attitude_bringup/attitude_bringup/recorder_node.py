@@ -72,6 +72,7 @@ class BagRecorderNode(StackNode):
         self.writer = open_bag(self.output_dir, scenario_text)
         self.timeline = Timeline(self.writer, self.stop_rule, run_time_s, self.get_logger().warning)
         self.reported = False  # a failed write was logged
+        self.stopping = False  # a planner status set the stop: later ones cannot move it
         for topic in c.TOPICS:
             raw_subscription(self, topic.name, self.callback(topic))
         self.create_timer(0.1, self.check_outcome)
@@ -95,7 +96,12 @@ class BagRecorderNode(StackNode):
                 return
             if done.past_stop:
                 self.check_outcome()
-            elif done.log_time_ns is not None and watch and any(m in data for m in markers):
+            elif (
+                watch
+                and not self.stopping
+                and done.log_time_ns is not None
+                and any(m in data for m in markers)
+            ):
                 self.check_stop(data, done.log_time_ns)
 
         return on_message
@@ -110,6 +116,7 @@ class BagRecorderNode(StackNode):
                 continue
             stop = self.stop_rule
             if stop.on_status(status.status, stamp_ns) and stop.stop_at_ns is not None:
+                self.stopping = True  # stamps only grow: a later status stops later
                 self.get_logger().info(
                     f"planner status {status.status.value!r} at {stamp_ns / NS_PER_S:.3f} s: "
                     f"recording until {stop.stop_at_ns / NS_PER_S:.3f} s"

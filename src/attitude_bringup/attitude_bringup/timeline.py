@@ -87,6 +87,10 @@ class Recorded:
     past_stop: bool = False
 
 
+_HELD = Recorded()  # the common outcomes, shared (the dataclass is frozen)
+_PAST_STOP = Recorded(past_stop=True)
+
+
 class Timeline:
     """Writes raw messages to ``writer`` on the run's timeline (see the module docstring)."""
 
@@ -144,12 +148,12 @@ class Timeline:
         """Write one message received at ``wall_ns`` (monotonic ``now_s``); nothing once a
         write has failed (:attr:`write_error`)."""
         if self.write_error is not None:
-            return Recorded()
+            return _HELD
         try:
             return self._record(topic, data, wall_ns, now_s)
         except BagWriteError as err:
             self.write_error = err
-            return Recorded()
+            return _HELD
 
     def _record(self, topic: Topic, data: bytes, wall_ns: int, now_s: float) -> Recorded:
         name, bad, unstamped = topic.name, None, not topic.stamped
@@ -168,14 +172,15 @@ class Timeline:
                 self.unstamped.append((name, data, wall_ns))
             else:
                 self.writer.write(name, data, self.last_stamp_ns, wall_ns)
-            return Recorded()
+            return _HELD
         log_time = sec * NS_PER_S + nanosec
         if not self.stop.on_stamped(name, log_time, now_s):
-            return Recorded(past_stop=True)
+            return _PAST_STOP
         self.last_stamp_ns = max(log_time, self.last_stamp_ns or log_time)
-        for held in self.unstamped:
-            self.writer.write(held[0], held[1], log_time, held[2])
-        self.unstamped.clear()
+        if self.unstamped:
+            for held in self.unstamped:
+                self.writer.write(held[0], held[1], log_time, held[2])
+            self.unstamped.clear()
         self.writer.write(name, data, log_time, wall_ns)
         return Recorded(log_time_ns=log_time)
 

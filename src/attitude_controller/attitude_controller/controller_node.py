@@ -57,6 +57,7 @@ class PdControllerNode(StackNode):
             self, self.spec, self.scenario, self.stop, stamp_ns=lambda: self.last_stamp or 0
         )
         self.pub_torque = publisher(self, c.TORQUE)
+        self.out_torque = message(c.TORQUE)  # refilled for each stamp
         subscribe_paired(
             self,
             self.guard,
@@ -84,7 +85,7 @@ class PdControllerNode(StackNode):
         limit = self.scenario.actuators.max_torque_nm
         u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
         u = u if self.active else 0.0 * u
-        out = message(c.TORQUE)
+        out = self.out_torque
         out.header.stamp = stamp_msg
         set_vector3(out.wrench.torque, u)
         self.publish(out)

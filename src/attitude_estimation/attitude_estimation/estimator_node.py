@@ -64,8 +64,8 @@ class MekfEstimatorNode(StackNode):
         self.pub_rate = publisher(self, c.ANGULAR_VELOCITY)
         self.pub_diag = publisher(self, c.DIAGNOSTICS)
         self.msg_att, self.msg_rate = message(c.ATTITUDE), message(c.ANGULAR_VELOCITY)
-        subscription(self, c.IMU, self.on_imu)
-        subscription(self, c.STAR_TRACKER, self.on_star_tracker)
+        self.guard.watch(c.IMU, subscription(self, c.IMU, self.on_imu))
+        self.guard.watch(c.STAR_TRACKER, subscription(self, c.STAR_TRACKER, self.on_star_tracker))
         self.create_timer(POLL_PERIOD_S, self.on_timer)
         spec = sc.sensors
         self.get_logger().info(

@@ -41,7 +41,7 @@ from attitude_core.runtime.planner_report import planner_diagnostics
 from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
-from attitude_ros.convert import diagnostic_array, set_vector3
+from attitude_ros.convert import DiagnosticsOut, set_vector3
 from attitude_ros.endpoints import message, publisher
 from attitude_ros.intake import attitude_value, rate_value, subscribe_paired
 from attitude_ros.node_base import StackNode
@@ -72,6 +72,7 @@ class FepfPlannerNode(StackNode):
         )
         self.out_mrp, self.out_rate = message(c.TARGET_MRP), message(c.TARGET_RATE)
         self.out_margin, self.out_diag = message(c.KEEP_OUT_MARGIN), None
+        self.diag = DiagnosticsOut()  # the one /diagnostics message, refilled each step
         state = ((c.ATTITUDE, attitude_value), (c.ANGULAR_VELOCITY, rate_value))
         # A lockstep re-send (same state) gets the same answer again: self.publish.
         subscribe_paired(self, self.guard, self.intake, state, self.answer, self.publish)
@@ -131,7 +132,7 @@ class FepfPlannerNode(StackNode):
         report = planner_diagnostics(
             self.guidance, result, step_s, self.out_margin.data, self.rejected
         )
-        self.out_diag = diagnostic_array(stamp_msg, report)
+        self.out_diag = self.diag.fill(stamp_msg, report)
         self.publish()
         self.log_changes(stamp, result)
 

@@ -15,10 +15,11 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from attitude_core.contract import diagnostics
 from attitude_core.contract.diagnostics import PlannerDiagnostics
+from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S, Stamp
 from attitude_core.contract.topics import stamp_ns as stamp_ns  # re-exported for the nodes
 from attitude_core.contract.topics import topic as contract_topic
-from attitude_core.gnc.mrp import Vec3Like, mrp_from_quat, quat_from_mrp
+from attitude_core.gnc.mrp import Vec3Like, mrp_from_quat_single, quat_from_mrp_single
 
 # ROS messages, nodes and loggers are typed Any: the message packages ship no type
 # information, and only their attributes are used here.
@@ -42,15 +43,14 @@ def quaternion_xyzw(q: Any) -> npt.NDArray[np.float64]:
     return np.array((q.x, q.y, q.z, q.w))
 
 
-def set_quaternion_from_mrp(q: Any, sigma_bn: npt.ArrayLike) -> None:
+def set_quaternion_from_mrp(q: Any, sigma_bn: Vec3Like) -> None:
     """Body orientation in the inertial frame, ``(x, y, z, w)`` with ``w >= 0``."""
-    x, y, z, w = quat_from_mrp(np.asarray(sigma_bn, dtype=float))
-    q.x, q.y, q.z, q.w = float(x), float(y), float(z), float(w)
+    q.x, q.y, q.z, q.w = quat_from_mrp_single(sigma_bn)
 
 
 def mrp_from_quaternion(q: Any) -> npt.NDArray[np.float64]:
     """``sigma_BN`` (``|sigma| <= 1``) from a quaternion message (normalised first)."""
-    return mrp_from_quat(quaternion_xyzw(q))
+    return np.array(mrp_from_quat_single(q.x, q.y, q.z, q.w))
 
 
 def init_imu(msg: Any, gyro_noise_rad_s: float) -> None:
@@ -121,26 +121,35 @@ def bad_vector(values: Sequence[float] | npt.NDArray[np.float64], name: str) -> 
 
 def bad_quaternion(q: Any, tolerance: float = 1e-3) -> str | None:
     """Reason a quaternion message is unusable: non-finite, zero or not of unit norm."""
-    values = (q.x, q.y, q.z, q.w)
-    reason = bad_vector(values, "orientation")
-    if reason:
-        return reason
-    norm = math.sqrt(sum(x * x for x in values))
-    if abs(norm - 1.0) > tolerance:
-        return f"orientation quaternion has norm {norm:.6g}, not 1"
-    return None
+    x, y, z, w = q.x, q.y, q.z, q.w
+    norm = math.sqrt(x * x + y * y + z * z + w * w)
+    if abs(norm - 1.0) <= tolerance:  # finite and of unit norm (NaN compares False)
+        return None
+    reason = bad_vector((x, y, z, w), "orientation")
+    return reason or f"orientation quaternion has norm {norm:.6g}, not 1"
 
 
-def diagnostic_array(stamp: Any, report: PlannerDiagnostics) -> Any:
-    """The planner's ``/diagnostics`` message: one ``DiagnosticStatus`` named as the
-    contract says, its level and message from the status, the report's key/values."""
-    status = DiagnosticStatus(
-        level=bytes([report.status.level]),
-        name=diagnostics.STATUS_NAME,
-        message=report.status.value,
-        hardware_id=diagnostics.HARDWARE_ID,
-        values=[KeyValue(key=k, value=v) for k, v in report.values()],
-    )
-    array = DiagnosticArray(status=[status])
-    array.header.stamp = stamp
-    return array
+class DiagnosticsOut:
+    """The planner's ``/diagnostics`` message, built once and refilled each step: one
+    ``DiagnosticStatus`` named as the contract says, its level and message from the
+    status, the report's key/values in :data:`~attitude_core.contract.diagnostics.KEYS`
+    order."""
+
+    def __init__(self) -> None:
+        self.values = [KeyValue(key=key, value="") for key in diagnostics.KEYS]
+        self.status = DiagnosticStatus(
+            name=diagnostics.STATUS_NAME, hardware_id=diagnostics.HARDWARE_ID, values=self.values
+        )
+        self.msg = DiagnosticArray(status=[self.status])
+        self.level: PlannerStatus | None = None
+
+    def fill(self, stamp: Any, report: PlannerDiagnostics) -> Any:
+        """The message of ``report`` stamped ``stamp`` (the same object each call)."""
+        if report.status is not self.level:
+            self.level = report.status
+            self.status.level = bytes([report.status.level])
+            self.status.message = report.status.value
+        for kv, (_, value) in zip(self.values, report.values(), strict=True):
+            kv.value = value
+        self.msg.header.stamp = stamp
+        return self.msg

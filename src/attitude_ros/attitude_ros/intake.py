@@ -77,9 +77,10 @@ def subscribe_paired(
     if len(inputs) != pairing.slots:
         raise ValueError(f"{len(inputs)} input topics for {pairing.slots} pairing slots")
     for slot, (name, convert) in enumerate(inputs):
-        subscription(
+        sub = subscription(
             node, name, _callback(node, guard, pairing, slot, name, convert, on_complete, on_repeat)
         )
+        guard.watch(name, sub)
 
 
 def _callback(

@@ -63,6 +63,7 @@ class RigidBodySimNode(StackNode):
             lambda code, reason: self.finish(code),
             stamp_ns=lambda: self.stepper.state_stamp or 0,
         )
+        self.guard.watch(c.TORQUE, self.sub_torque)
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
             f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "

@@ -41,7 +41,9 @@ __all__ = [
     "relative_single",
     "relative_euler_single",
     "quat_from_mrp",
+    "quat_from_mrp_single",
     "mrp_from_quat",
+    "mrp_from_quat_single",
     "principal_angle",
     "quat_mul_sf",
     "quat_sf_from_mrp",
@@ -286,6 +288,29 @@ def mrp_from_quat(quat_xyzw: npt.ArrayLike) -> _Floats:
     q = np.asarray(quat_xyzw, dtype=float)
     q = q / np.linalg.norm(q, axis=-1, keepdims=True)
     return mrp_from_quat_sf(np.concatenate([q[..., 3:], q[..., :3]], -1))
+
+
+def quat_from_mrp_single(sigma_bn: Vec3Like) -> tuple[float, float, float, float]:
+    """:func:`quat_from_mrp` of one MRP in plain floats (the nodes' per-message path):
+    ``(x, y, z, w)``, ``w >= 0``."""
+    s1, s2, s3 = float(sigma_bn[0]), float(sigma_bn[1]), float(sigma_bn[2])
+    n2 = s1 * s1 + s2 * s2 + s3 * s3
+    if n2 > 1.0:  # the shadow set, |sigma| <= 1
+        s1, s2, s3 = -s1 / n2, -s2 / n2, -s3 / n2
+        n2 = s1 * s1 + s2 * s2 + s3 * s3
+    d = 1.0 + n2
+    return (2.0 * s1 / d, 2.0 * s2 / d, 2.0 * s3 / d, (1.0 - n2) / d)
+
+
+def mrp_from_quat_single(x: float, y: float, z: float, w: float) -> Vec3:
+    """:func:`mrp_from_quat` of one quaternion ``(x, y, z, w)`` in plain floats (the
+    nodes' per-message path); normalises it, ``|sigma| <= 1``."""
+    n = math.sqrt(x * x + y * y + z * z + w * w)
+    x, y, z, w = x / n, y / n, z / n, w / n
+    if w < 0.0:
+        x, y, z, w = -x, -y, -z, -w
+    d = 1.0 + w
+    return (x / d, y / d, z / d)
 
 
 def principal_angle(sigma: npt.ArrayLike) -> _Floats:
