@@ -23,8 +23,12 @@ def test_records_until_the_status_plus_the_delay_then_closes_when_every_seen_top
         assert feed(rule, topics, k * S, 0.1 * k) == [True] * 3
     assert rule.poll(0.5) is Outcome.RECORDING
     assert not rule.on_status(PlannerStatus.TRACKING, 4 * S)
+    assert not rule.status_stopped  # the scenario's end is no planner status
     assert rule.on_status(PlannerStatus.ARRIVED, 4 * S)
     assert rule.stop_at_ns == 5 * S and rule.reason == "planner status arrived"
+    assert rule.status_stopped  # the recorder parses no later status
+    assert not rule.on_status(PlannerStatus.ARRIVED, 4 * S + 1)  # a later one cannot move it
+    assert rule.stop_at_ns == 5 * S
     assert feed(rule, topics, 5 * S, 0.6) == [True] * 3  # the stop stamp itself is recorded
     assert rule.on_stamped(ATTITUDE, 6 * S, 0.7) is False
     assert rule.poll(0.7) is Outcome.RECORDING  # rate and torque have not passed yet

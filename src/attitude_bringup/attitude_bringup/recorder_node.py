@@ -72,7 +72,6 @@ class BagRecorderNode(StackNode):
         self.writer = open_bag(self.output_dir, scenario_text)
         self.timeline = Timeline(self.writer, self.stop_rule, run_time_s, self.get_logger().warning)
         self.reported = False  # a failed write was logged
-        self.stopping = False  # a planner status set the stop: later ones cannot move it
         for topic in c.TOPICS:
             raw_subscription(self, topic.name, self.callback(topic))
         self.create_timer(0.1, self.check_outcome)
@@ -85,8 +84,8 @@ class BagRecorderNode(StackNode):
         self.get_logger().info(f"recording to {self.output_dir}; stops on {stops}{attached}")
 
     def callback(self, topic: Topic) -> Any:
-        watch = topic.name == c.DIAGNOSTICS and bool(self.stop_rule.stop_on)
-        markers = tuple(status.value.encode() for status in self.stop_rule.stop_on)
+        stop_on = self.stop_rule.stop_on if topic.name == c.DIAGNOSTICS else ()
+        markers = tuple(status.value.encode() for status in stop_on)  # looked for in the CDR
 
         def on_message(data: bytes) -> None:
             if not self.active:  # records while active only
@@ -96,27 +95,21 @@ class BagRecorderNode(StackNode):
                 return
             if done.past_stop:
                 self.check_outcome()
-            elif (
-                watch
-                and not self.stopping
-                and done.log_time_ns is not None
-                and any(m in data for m in markers)
-            ):
+            elif done.log_time_ns is not None and any(m in data for m in markers):
                 self.check_stop(data, done.log_time_ns)
 
         return on_message
 
     def check_stop(self, data: bytes, stamp_ns: int) -> None:
-        """A planner diagnostics message whose status ends the recording: stop at its
-        stamp plus ``stop_delay_s``, once every stamped topic has got there."""
-        for st in deserialize_message(data, DiagnosticArray).status:
+        """A planner status that ends the recording: stop at its stamp plus ``stop_delay_s``
+        once every stamped topic is there (none parsed once one has: later is later)."""
+        stop = self.stop_rule
+        for st in () if stop.status_stopped else deserialize_message(data, DiagnosticArray).status:
             try:
                 status = PlannerDiagnostics.from_values({kv.key: kv.value for kv in st.values})
             except ValueError:  # another node's diagnostics
                 continue
-            stop = self.stop_rule
             if stop.on_status(status.status, stamp_ns) and stop.stop_at_ns is not None:
-                self.stopping = True  # stamps only grow: a later status stops later
                 self.get_logger().info(
                     f"planner status {status.status.value!r} at {stamp_ns / NS_PER_S:.3f} s: "
                     f"recording until {stop.stop_at_ns / NS_PER_S:.3f} s"

@@ -132,10 +132,12 @@ class RunGuard:
 
     # -- foreign publishers --------------------------------------------------------
 
-    def watch(self, topic: str, subscription: Any) -> None:
+    def watch(self, topic: str, subscription: Any) -> Any:
         """Count ``topic``'s writers on the node's own ``subscription`` of it (its matched
-        publishers: one cheap call per message, no graph query) in :meth:`admit`."""
+        publishers: one cheap call per message, no graph query) in :meth:`admit`;
+        returns the subscription."""
         self._subscriptions[topic] = subscription
+        return subscription
 
     def _publisher_count(self, topic: str) -> int:
         sub = self._subscriptions.get(topic)

@@ -53,7 +53,6 @@ class RigidBodySimNode(StackNode):
         self.msg_att, self.msg_rate = message(state_att), message(state_rate)
         self.sensors = None if sc.sensors is None else SensorOut(self, sc, sc.sensors)
         self.pub_applied = publisher(self, c.APPLIED_TORQUE)
-        self.sub_torque = subscription(self, c.TORQUE, self.on_torque)
         self.msg_clock, self.msg_applied = ClockMsg(), message(c.APPLIED_TORQUE)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.guard = RunGuard(
@@ -63,7 +62,7 @@ class RigidBodySimNode(StackNode):
             lambda code, reason: self.finish(code),
             stamp_ns=lambda: self.stepper.state_stamp or 0,
         )
-        self.guard.watch(c.TORQUE, self.sub_torque)
+        self.sub_torque = self.guard.watch(c.TORQUE, subscription(self, c.TORQUE, self.on_torque))
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
             f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "

@@ -17,8 +17,8 @@ from attitude_core.config.scenario import Scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.gnc.fepf import buffer_deg
 from attitude_core.gnc.goal_watch import goal_blockages, safe_until_s
-from attitude_core.gnc.guidance import GuidanceLimits, time_bound_s
 from attitude_core.gnc.mrp import principal_angle, relative
+from attitude_core.gnc.profile_limits import GuidanceLimits, time_bound_s
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg, path_length_mrp
 from attitude_core.record.trajectory import RunResult
 
@@ -107,14 +107,16 @@ def summarize(run: RunResult) -> Summary:
     stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
     infeasible = bool(np.any(run.planner_status == PlannerStatus.INFEASIBLE.code))
     blocked_at = np.flatnonzero(run.planner_status == PlannerStatus.BLOCKED.code)
-    blockages = goal_blockages(
-        sc.sky,
-        sc.desired_mrp,
-        0.0,
-        sc.sim_time_s,
-        buffer_deg(sc, sc.initial_mrp),
-        sc.constraint_names,
-    )
+    blockages = []  # a static sky never blocks the goal (goal_blockages)
+    if not sc.sky.static:
+        blockages = goal_blockages(
+            sc.sky,
+            sc.desired_mrp,
+            0.0,
+            sc.sim_time_s,
+            buffer_deg(sc, sc.initial_mrp),
+            sc.constraint_names,
+        )
     first_block = None
     if len(blocked_at):
         t_blocked = float(run.t[blocked_at[0]])
@@ -216,7 +218,7 @@ def _against_limits(run: RunResult, t_reach: float | None) -> dict[str, Any]:
 
     ``rotation_deg`` is the rotation flown up to the arrival (the integral of
     ``|omega_B| dt``); ``time_bound_s`` the rest-to-rest bound along it
-    (:func:`attitude_core.gnc.guidance.time_bound_s`) and ``time_ratio_to_bound`` the arrival
+    (:func:`attitude_core.gnc.profile_limits.time_bound_s`) and ``time_ratio_to_bound`` the arrival
     time over that bound (None without limits or without an arrival).
     ``peak_torque_to_bound`` is the largest ``|u_i| / max_torque_nm_i`` and
     ``peak_rate_to_bound`` the peak body rate over ``max_rate_rad_s``.

@@ -103,6 +103,8 @@ class StopRule:
         self.grace_s = grace_s
         self.first_state_ns: int | None = None
         self.stop_at_ns: int | None = None
+        self.status_stopped = False
+        """A planner status set the stop: a later one (a later stamp) cannot move it."""
         self.reason: str | None = None
         self.seen: set[str] = set()
         self.passed: set[str] = set()
@@ -126,7 +128,9 @@ class StopRule:
         """The planner's status at a stamp; True if it set the stop point."""
         if status not in self.stop_on:
             return False
-        return self._stop_at(stamp_ns + self.stop_delay_ns, f"planner status {status.value}")
+        stopped = self._stop_at(stamp_ns + self.stop_delay_ns, f"planner status {status.value}")
+        self.status_stopped = self.status_stopped or stopped
+        return stopped
 
     def poll(self, now: float) -> Outcome:
         """The outcome so far (call after each message and periodically)."""

@@ -250,9 +250,8 @@ def run_nodes(
 
 
 def _preload() -> None:
-    """Import the summary's modules (the bag reader and the metrics: the guidance, SciPy)
-    in a thread while the nodes run, not before they start nor after they end: a
-    third of a second off each end of the run."""
+    """Import the summary's modules (the bag reader and the metrics, about 0.1 s) in a
+    thread while the nodes run, not before they start nor after they end."""
     import importlib
     import threading
 
