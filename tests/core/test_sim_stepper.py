@@ -292,6 +292,7 @@ def test_lockstep_first_step_rate_change_is_euler_equation():
 def test_lockstep_resend_after_resend_period():
     s = make(resend_period_s=0.2, torque_timeout_s=2.0)
     _, t = start(s)
+    assert s.on_torque(t, 0, np.zeros(3)).action is Action.ADVANCE  # the loop has answered
     assert s.on_timer(t + 0.1).action is Action.NONE
     assert s.on_timer(t + 0.19).action is Action.NONE
     d = s.on_timer(t + 0.25)
@@ -300,7 +301,7 @@ def test_lockstep_resend_after_resend_period():
     assert s.on_timer(t + 0.4).action is Action.NONE  # 0.15 s since the re-send
     assert s.on_timer(t + 0.5).action is Action.RESEND
     assert s.resends == 2
-    assert s.k == 0 and s.timeouts == 0 and s.waiting_stamp == 0
+    assert s.k == 1 and s.timeouts == 0 and s.waiting_stamp == DT_NS
 
 
 def test_lockstep_hold_then_zero_then_torque_received_again():

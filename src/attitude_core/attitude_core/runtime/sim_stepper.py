@@ -15,7 +15,9 @@ node must do; the node only converts messages and publishes what it is told.
   controller answers again. Until the loop has answered once, the first state waits up
   to ``startup_timeout_s`` instead: the simulator's view of the graph does not tell
   whether the planner and the controller have matched each other yet, and under load
-  that can take longer than a step's deadline (the state is re-sent meanwhile).
+  that can take longer than a step's deadline (the state is re-sent meanwhile, every
+  :data:`STARTUP_RESEND_FRACTION` of ``resend_period_s``: a re-send is answered
+  identically, and a first state one node missed is asked for again sooner).
 * Real time (stamps are the node's clock): :meth:`on_timer` is called every ``dt_s`` and
   steps with the latest torque held; a torque older than ``torque_stale_s`` (wall time
   since it arrived) is stale: zero torque. A torque stamped before the one applied is
@@ -55,10 +57,23 @@ from attitude_core.runtime.plausibility import (
 if TYPE_CHECKING:
     from attitude_core.config.node_parameters import SimulatorParams
 
-__all__ = ["Action", "StepperConfig", "StateOut", "Decision", "SimStepper", "SETTLE_S"]
+__all__ = [
+    "Action",
+    "StepperConfig",
+    "StateOut",
+    "Decision",
+    "SimStepper",
+    "SETTLE_S",
+    "STARTUP_RESEND_FRACTION",
+]
 
-SETTLE_S = 0.2
-"""Wall time the graph must stay connected before the first step, s."""
+SETTLE_S = 0.05
+"""Wall time the graph must stay connected before the first step, s (a few of the
+node's polls: a link still matching costs a re-send of the first state, see
+:data:`STARTUP_RESEND_FRACTION`)."""
+STARTUP_RESEND_FRACTION = 0.25
+"""Re-send period of the state until the loop has answered once, as a fraction of
+``resend_period_s`` (0.05 s by default)."""
 ANSWERABLE_STATES = 100
 """A torque must answer one of the last this many published states (10 s at 0.1 s)."""
 
@@ -305,7 +320,10 @@ class SimStepper:
             decision = self._advance(now, self.torque, action)
             decision.logs[:0] = logs
             return decision
-        if now - self.sent_at > self.cfg.resend_period_s:
+        period = self.cfg.resend_period_s
+        if not self.answered:  # the first state: a node that missed it is still matching
+            period *= STARTUP_RESEND_FRACTION
+        if now - self.sent_at > period:
             self.resends += 1
             self.sent_at = now
             return Decision(Action.RESEND)
