@@ -25,6 +25,15 @@ def rk4_step(
     torque_b: _Vec,
     dt: float,
 ) -> tuple[tuple[float, float, float], tuple[float, float, float]]: ...
+def dense_interval_minima(
+    kernel: ConeKernel,
+    t: npt.NDArray[np.float64],
+    q: npt.NDArray[np.float64],
+    qd: npt.NDArray[np.float64],
+    basis: npt.NDArray[np.float64],
+    out: npt.NDArray[np.float64],
+    slack: float,
+) -> float: ...
 
 class ConeKernel:
     def __init__(

@@ -373,6 +373,33 @@ class ConeGeometry:
         smallest: _Floats = self.constraint_margins_deg(sigma_bn).min(axis=-1)
         return smallest
 
+    def dense_interval_minima(
+        self,
+        t: _Floats,
+        q: _Floats,
+        q_dot: _Floats,
+        basis: _Floats,
+        slack_deg: float,
+    ) -> tuple[float, _Floats] | None:
+        """The compiled screen of a sampled run's dense margin: each interval's smallest
+        exact margin over its cubic Hermite attitudes (scalar-first Euler parameters
+        ``q`` ``(N, 4)`` with a continuous sign, their rates ``q_dot``, the basis
+        ``(4, S + 1)`` at the substeps), exact for the intervals within ``slack_deg`` of
+        the run's smallest and larger for the others: ``(smallest, per interval (N - 1,))``.
+        None without the compiled kernels, or when an input is not finite; the margins
+        differ from :meth:`min_margin_deg`'s in the last bits
+        (:func:`attitude_core.record.metrics.dense_min_margin_deg` uses it)."""
+        if self._kernel is None:
+            return None
+        assert kernels.compiled is not None  # a kernel is built only with them
+        out = np.empty(len(t) - 1)
+        smallest = float(
+            kernels.compiled.dense_interval_minima(
+                self._kernel, t, q, q_dot, basis, out, float(slack_deg)
+            )
+        )
+        return None if not math.isfinite(smallest) else (smallest, out)
+
     def min_margin_deg_single(self, sigma_bn: Vec3Like) -> float:
         """Smallest exact margin for one attitude, degrees: the hot-path form of
         :meth:`min_margin_deg` (compiled; :meth:`min_margin_deg_single_reference`)."""

@@ -20,7 +20,9 @@ from attitude_core.gnc.mrp import (
 from attitude_core.gnc.sky import Sky
 
 __all__ = [
+    "DENSE_SLACK_DEG",
     "dense_min_margin_deg",
+    "dense_min_margin_deg_reference",
     "path_length_mrp",
     "arrival_time",
 ]
@@ -32,6 +34,13 @@ def _quat_rate_sf(q: np.ndarray, omega: np.ndarray) -> np.ndarray:
     d0 = -0.5 * np.einsum("...i,...i->...", qv, omega)[..., None]
     dv = 0.5 * (q0 * omega + np.cross(qv, omega))
     return np.concatenate([d0, dv], -1)
+
+
+DENSE_SLACK_DEG = 1e-9
+"""How far above the compiled screen's smallest margin an interval is still measured by
+the NumPy reference in :func:`dense_min_margin_deg` (deg): the screen's margins differ
+from the reference's by about 1e-14 deg, so every interval that could hold the
+reference's minimum is kept."""
 
 
 def dense_min_margin_deg(
@@ -48,37 +57,101 @@ def dense_min_margin_deg(
     its rate (``q_dot`` from ``omega``, so it is exact to O(dt^4)), renormalised.
     Returns ``(min_margin_deg, time_of_min_s)``; a run of one sample has no interval, and
     its margin is that sample's.
+
+    On fixed cones (a :class:`ConeGeometry`, a static sky) with the compiled kernels, a
+    compiled screen (:meth:`ConeGeometry.dense_interval_minima`) measures every
+    interpolated attitude and keeps the intervals within :data:`DENSE_SLACK_DEG` of its
+    smallest margin; :func:`dense_min_margin_deg_reference` then measures only those, so
+    the result is the reference's to the bit at a fraction of its cost.
     """
     t = np.asarray(t, dtype=float)
-    if isinstance(geometry, Sky):
-        sky = geometry
-
-        def smallest(times: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-            return sky.min_margin_deg(times, sigma)
-    else:
-        cones = geometry
-
-        def smallest(times: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-            return cones.min_margin_deg(sigma)
-
     if len(t) < 2:
-        single = smallest(t[:1], np.asarray(sigma_bn, dtype=float).reshape(-1, 3)[:1])
+        return dense_min_margin_deg_reference(geometry, t, sigma_bn, omega_b, substeps)
+    q, q_dot = _hermite_nodes(sigma_bn, omega_b)
+    cones = geometry if isinstance(geometry, ConeGeometry) else None
+    if isinstance(geometry, Sky) and geometry.static:
+        cones = geometry.exact_geometry  # the margins Sky.min_margin_deg takes
+    screen = None
+    if cones is not None:
+        basis = np.ascontiguousarray(np.concatenate(_hermite_basis(substeps), axis=0)[..., 0])
+        screen = cones.dense_interval_minima(t, q, q_dot, basis, DENSE_SLACK_DEG)
+    if screen is None:
+        return _dense_min(geometry, t, q, q_dot, substeps, None)
+    smallest, per_interval = screen
+    kept = np.flatnonzero(per_interval <= smallest + DENSE_SLACK_DEG)
+    if 2 * len(kept) > len(per_interval):  # a flat margin: no saving in a selection
+        return _dense_min(geometry, t, q, q_dot, substeps, None)
+    return _dense_min(geometry, t, q, q_dot, substeps, kept)
+
+
+def dense_min_margin_deg_reference(
+    geometry: ConeGeometry | Sky,
+    t: np.ndarray,
+    sigma_bn: np.ndarray,
+    omega_b: np.ndarray,
+    substeps: int = 8,
+) -> tuple[float, float]:
+    """:func:`dense_min_margin_deg` in NumPy alone: every interval measured."""
+    t = np.asarray(t, dtype=float)
+    if len(t) < 2:
+        sigma = np.asarray(sigma_bn, dtype=float).reshape(-1, 3)[:1]
+        single = _margins(geometry, t[:1], sigma)
         return float(single.min()), float(t[0])
+    q, q_dot = _hermite_nodes(sigma_bn, omega_b)
+    return _dense_min(geometry, t, q, q_dot, substeps, None)
+
+
+def _margins(geometry: ConeGeometry | Sky, times: np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Smallest exact margin of each attitude (against a sky, at its time)."""
+    if isinstance(geometry, Sky):
+        return geometry.min_margin_deg(times, sigma)
+    return geometry.min_margin_deg(sigma)
+
+
+def _hermite_nodes(sigma_bn: np.ndarray, omega_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The samples' Euler parameters with a continuous sign, and their rates."""
     q = quat_sf_from_mrp(np.asarray(sigma_bn, dtype=float))
     # Make the quaternion sign continuous (shadow switches flip it).
     flips = np.cumsum(np.r_[0, (np.einsum("ij,ij->i", q[1:], q[:-1]) < 0.0)]) % 2
     q = np.where(flips[:, None] == 1, -q, q)
-    qd = _quat_rate_sf(q, np.asarray(omega_b, dtype=float))
-    h = np.diff(t)[:, None, None]
+    return q, _quat_rate_sf(q, np.asarray(omega_b, dtype=float))
+
+
+def _hermite_basis(substeps: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``h00, h10, h01, h11`` at the substeps ``s = j / substeps``, each ``(1, S + 1, 1)``."""
     s = (np.arange(substeps + 1) / substeps)[None, :, None]
     h00, h10 = 2 * s**3 - 3 * s**2 + 1, s**3 - 2 * s**2 + s
     h01, h11 = -2 * s**3 + 3 * s**2, s**3 - s**2
-    qi = h00 * q[:-1, None] + h10 * h * qd[:-1, None] + h01 * q[1:, None] + h11 * h * qd[1:, None]
+    return h00, h10, h01, h11
+
+
+def _dense_min(
+    geometry: ConeGeometry | Sky,
+    t: np.ndarray,
+    q: np.ndarray,
+    q_dot: np.ndarray,
+    substeps: int,
+    intervals: np.ndarray | None,
+) -> tuple[float, float]:
+    """The smallest margin over the interpolated attitudes of ``intervals`` (None:
+    every interval) and its time; each interval's attitudes are computed alike whatever
+    the others measured with it."""
+    if intervals is None:
+        q0, q1, qd0, qd1, t0, t1 = q[:-1], q[1:], q_dot[:-1], q_dot[1:], t[:-1], t[1:]
+    else:
+        q0, q1, qd0, qd1 = q[intervals], q[intervals + 1], q_dot[intervals], q_dot[intervals + 1]
+        t0, t1 = t[intervals], t[intervals + 1]
+    h00, h10, h01, h11 = _hermite_basis(substeps)
+    dt = t1 - t0
+    h = dt[:, None, None]
+    qi = h00 * q0[:, None] + h10 * h * qd0[:, None] + h01 * q1[:, None] + h11 * h * qd1[:, None]
     qi /= np.linalg.norm(qi, axis=-1, keepdims=True)
-    times = t[:-1, None] + np.diff(t)[:, None] * s[..., 0]  # (N-1, substeps+1)
-    margins = smallest(times, mrp_from_quat_sf(qi))
+    times = t0[:, None] + dt[:, None] * (np.arange(substeps + 1) / substeps)[None, :]
+    margins = _margins(geometry, times, mrp_from_quat_sf(qi))
     k = int(np.argmin(margins))
     i, j = divmod(k, substeps + 1)
+    if intervals is not None:
+        i = int(intervals[i])
     t_min = float(t[i] + (t[i + 1] - t[i]) * j / substeps)
     return float(margins.flat[k]), t_min
 
