@@ -222,8 +222,13 @@ class Param:
         return self.default
 
     def renamed(self, key: str) -> Param:
-        """The same row under another key (per-instrument and per-object keys)."""
-        return dataclasses.replace(self, key=key)
+        """The same row under another key (per-instrument and per-object keys): a copy
+        of this checked row (what ``dataclasses.replace`` gives, without checking it
+        again: a scenario's per-name keys are renamed rows, thousands per campaign)."""
+        row = object.__new__(Param)
+        row.__dict__.update(self.__dict__)
+        object.__setattr__(row, "key", key)
+        return row
 
 
 # --- converters: raw value -> typed value, raising _Bad(reason) ---------------------------

@@ -2,7 +2,9 @@
 
 The random stream of run ``i`` is ``numpy.random.default_rng([seed, i])``, so a run
 draws the same scenario whatever the worker, the partitioning or the order. Every draw
-goes through the one scenario loader (``loads_scenario``); a draw whose start or goal
+goes through the one scenario loader (``parse_scenario``, given the values a reproducer
+file holds: :func:`scenario_text` read back by ``loads_scenario`` gives the same, without
+a YAML round trip per draw); a draw whose start or goal
 lies within ``min_end_margin_deg`` of a constraint boundary (a keep-out cone, or the rim
 of a keep-in cone), or that the loader refuses, is counted and redrawn.
 
@@ -55,7 +57,7 @@ from attitude_core.config.scenario import (
     Scenario,
     ScenarioError,
     flatten_parameters,
-    loads_scenario,
+    parse_scenario,
 )
 from attitude_core.config.scenario import scenario_yaml as to_yaml
 from attitude_core.config.scenario_schema import GROUPS
@@ -64,7 +66,7 @@ from attitude_core.yamlio import load_strict
 
 from .spec import MAX_REDRAWS, CampaignSpec, utc_text
 
-__all__ = ["Draw", "base_parameters", "draw_run", "scenario_text", "GOAL_SAMPLE_S"]
+__all__ = ["Draw", "base_parameters", "draw_run", "scenario_text", "as_read_back", "GOAL_SAMPLE_S"]
 
 GOAL_SAMPLE_S = 5.0
 """Spacing of the times at which a drawn goal's margin is checked on a moving sky, s."""
@@ -258,6 +260,13 @@ def scenario_text(flat: dict[str, Any]) -> str:
     return to_yaml(flat)
 
 
+def as_read_back(flat: dict[str, Any]) -> dict[str, Any]:
+    """The dotted values that :func:`scenario_text` read back holds: lists for tuples
+    (YAML has no tuple; every other drawn or base value, a float, an integer, a string, a
+    boolean or a list of them, reads back as itself)."""
+    return {k: list(v) if isinstance(v, tuple) else v for k, v in flat.items()}
+
+
 def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int, variant: str | None = None) -> Draw:
     """The scenario of run ``i`` (every variant of the run flies this one), flown by
     ``variant`` (``planner.variant``; None: the base scenario's)."""
@@ -272,7 +281,7 @@ def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int, variant: str | No
             close += 1  # cheap check first: the loader would refuse one inside a cone
             continue
         try:
-            sc = loads_scenario(scenario_text(flat), f"<{spec.name} run {i}>")
+            sc = parse_scenario(as_read_back(flat), f"<{spec.name} run {i}>")
         except ScenarioError:
             refused += 1
             continue
