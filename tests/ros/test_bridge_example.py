@@ -6,7 +6,6 @@ bridge process with the real planner and controller processes over DDS (a reserv
 offline closed loop.
 """
 
-import shutil
 import time
 from pathlib import Path
 
@@ -153,9 +152,7 @@ def lockstep_run(tmp_path, ros_domain, monkeypatch):
     env["ROS_DOMAIN_ID"] = str(ros_domain)
     env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
     (tmp_path / "logs").mkdir()
-    graph = NodeGraph(
-        shutil.which("ros2", path=env["PATH"]), env, tmp_path / "logs", ROOT / "scenarios"
-    )
+    graph = NodeGraph(env, tmp_path / "logs", ROOT / "scenarios")
     probe = StateProbe(ros_domain)
     try:
         params = ["--params-file", str(CASE1)]

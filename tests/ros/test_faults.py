@@ -6,7 +6,6 @@ recorded bag: no keep-out violation, arrival, and nothing recorded lost.
 
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
@@ -44,7 +43,7 @@ def _stamp(msg) -> int:
 
 
 class Graph:
-    """Recorder, planner, controller and simulator started with ``ros2 run``, plus an
+    """Recorder, planner, controller and simulator started as ``ros2 run`` starts them, plus an
     in-process probe that follows the state stamps (the simulator waits for it too), all on
     the reserved ROS domain ``domain``."""
 
@@ -58,9 +57,7 @@ class Graph:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         (tmp_path / "logs").mkdir()
         self.bag = tmp_path / "bag"
-        self.graph = NodeGraph(
-            shutil.which("ros2", path=env["PATH"]), env, tmp_path / "logs", ROOT / "scenarios"
-        )
+        self.graph = NodeGraph(env, tmp_path / "logs", ROOT / "scenarios")
         self.params = ["--params-file", str(CASE1)]
         listeners = node_graph.state_listeners() + 1  # and the probe
         self.sim_params = [

@@ -17,7 +17,6 @@ import json
 import os
 import random
 import re
-import shutil
 import signal
 import subprocess
 import sys
@@ -57,7 +56,7 @@ def _stamp(msg) -> int:
 
 
 class Recording:
-    """Recorder, planner, controller and simulator started with ``ros2 run`` on the
+    """Recorder, planner, controller and simulator started as ``ros2 run`` starts them on the
     reserved domain, and a reliable in-process probe (spun in a thread of its own) that
     notes the wall receive time of every state."""
 
@@ -70,9 +69,7 @@ class Recording:
         env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
         (tmp_path / "logs").mkdir()
         self.bag = tmp_path / "bag"
-        self.graph = NodeGraph(
-            shutil.which("ros2", path=env["PATH"]), env, tmp_path / "logs", ROOT / "scenarios"
-        )
+        self.graph = NodeGraph(env, tmp_path / "logs", ROOT / "scenarios")
         self.time_mode = time_mode
         self.received: list[tuple[int, int]] = []  # (state stamp, wall receive time), ns
         self.ctx = rclpy.Context()

@@ -380,3 +380,35 @@ def test_workspace_executables_resolve(pkg, exe):
     assert Path(res.stdout.strip()) == WS / 'install' / pkg / 'lib' / pkg / exe, (
         'ros2_ws/install is out of date: run bash tools/bootstrap'
     )
+
+
+def test_lookup_in_a_given_environment_matches_the_shim(tmp_path):
+    """``find_executable(..., env)`` (attitude-run's start of its nodes) finds what the
+    shim, with that environment, runs: the first prefix whose ament index lists the
+    package wins, a prefix without the package's marker file is not searched."""
+    from attitude_tools.ros2_cli import PackageNotFound, find_executable
+
+    first = make_prefix(tmp_path / 'a', 'demo_pkg', {'talker': (FAKE_NODE, 0o755)})
+    second = make_prefix(tmp_path / 'b', 'demo_pkg', {'talker': (FAKE_NODE, 0o755)})
+    unlisted = make_prefix(tmp_path / 'c', 'demo_pkg', {'talker': (FAKE_NODE, 0o755)}, False)
+    paths = [unlisted, first, second]
+    env = {'AMENT_PREFIX_PATH': os.pathsep.join(str(p) for p in paths)}
+    found = find_executable('demo_pkg', 'talker', env)
+    assert found == str(first / 'lib' / 'demo_pkg' / 'talker')
+    res = shim('run', 'demo_pkg', 'talker', ament_prefix_path=paths)
+    assert res.returncode == 3 and parse(res.stdout)[1] == found  # the shim ran that file
+    assert find_executable('demo_pkg', 'listener', env) is None
+    with pytest.raises(PackageNotFound):
+        find_executable('other_pkg', 'talker', env)
+    with pytest.raises(PackageNotFound):
+        find_executable('demo_pkg', 'talker', {})
+
+
+def test_attitude_run_names_a_missing_node_package_before_starting_anything(tmp_path):
+    from attitude_core.contract import node_graph
+    from attitude_tools.run.environment import node_executables
+    from attitude_tools.run.errors import RunError
+
+    env = {'AMENT_PREFIX_PATH': str(make_prefix(tmp_path / 'p', 'demo_pkg'))}
+    with pytest.raises(RunError, match="package 'attitude_planner' not found"):
+        node_executables(env, [node_graph.PLANNER])

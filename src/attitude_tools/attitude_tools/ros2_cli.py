@@ -34,7 +34,7 @@ import os
 import shlex
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 from ament_index_python import PackageNotFoundError, get_package_prefix
 
@@ -67,20 +67,30 @@ class MultipleExecutables(Exception):
         self.paths = list(paths)
 
 
-def package_prefix(package_name: str) -> str:
-    """Install prefix of ``package_name`` from the ament index (``AMENT_PREFIX_PATH``)."""
-    if not os.environ.get('AMENT_PREFIX_PATH'):  # get_package_prefix would raise OSError
+def package_prefix(package_name: str, env: Mapping[str, str] | None = None) -> str:
+    """Install prefix of ``package_name`` from the ament index of ``env``'s
+    ``AMENT_PREFIX_PATH`` (default: this process's environment, through ament_index_python);
+    with ``env``, the first prefix whose index lists the package (its marker file
+    ``share/ament_index/resource_index/packages/<name>``), as ament_index_python does."""
+    paths = (os.environ if env is None else env).get('AMENT_PREFIX_PATH', '')
+    if not paths:  # get_package_prefix would raise OSError
+        raise PackageNotFound(package_name)
+    if env is not None:
+        for prefix in (p for p in paths.split(os.pathsep) if p):
+            marker = os.path.join(prefix, 'share', 'ament_index', 'resource_index', 'packages')
+            if os.path.isfile(os.path.join(marker, package_name)):
+                return prefix
         raise PackageNotFound(package_name)
     try:
-        prefix: str = get_package_prefix(package_name)
-        return prefix
+        found: str = get_package_prefix(package_name)
+        return found
     except (PackageNotFoundError, ValueError):
         raise PackageNotFound(package_name) from None
 
 
-def executable_paths(package_name: str) -> list[str]:
+def executable_paths(package_name: str, env: Mapping[str, str] | None = None) -> list[str]:
     """Every executable file under ``<prefix>/lib/<package_name>``, in a stable order."""
-    base = os.path.join(package_prefix(package_name), 'lib', package_name)
+    base = os.path.join(package_prefix(package_name, env), 'lib', package_name)
     found: list[str] = []
     for dirpath, dirnames, filenames in os.walk(base):
         dirnames[:] = sorted(d for d in dirnames if not d.startswith('.'))
@@ -91,9 +101,13 @@ def executable_paths(package_name: str) -> list[str]:
     return found
 
 
-def find_executable(package_name: str, executable_name: str) -> str | None:
-    """Path of the executable, None if there is none; raises on several or no package."""
-    matches = [p for p in executable_paths(package_name) if os.path.basename(p) == executable_name]
+def find_executable(
+    package_name: str, executable_name: str, env: Mapping[str, str] | None = None
+) -> str | None:
+    """Path of the executable, None if there is none; raises on several or no package.
+    ``env``: whose ``AMENT_PREFIX_PATH`` to search (default: this process's)."""
+    paths = executable_paths(package_name, env)
+    matches = [p for p in paths if os.path.basename(p) == executable_name]
     if len(matches) > 1:
         raise MultipleExecutables(matches)
     return matches[0] if matches else None

@@ -1,8 +1,8 @@
 """``attitude-run SCENARIO.yaml --out DIR``: one scenario through the ROS 2 node graph.
 
 Starts the recorder, the planner, the controller and the simulator as separate
-processes with ``ros2 run <package> <executable> --ros-args ...`` (the real ROS 2 CLI
-where one is installed, else the project's ``ros2 run`` shim), waits until the
+processes, each the executable ``ros2 run <package> <executable> --ros-args ...`` runs
+(found in the ament index as ros2run and launch_ros find it, started directly), waits until the
 planner reports a status that ends the slew (``PlannerStatus.ending()``; the recorder
 then records ``--settle-s`` more run time, default 10 s, and closes the bag), or the
 scenario time ends, or a process fails; stops every process (SIGINT, then wait,
@@ -125,7 +125,7 @@ def run_scenario(
     staged = stage_run(req, inputs, ros_environment(workspace))
     # In the scenario's directory: relative data paths resolve as load_scenario does.
     nodes = NodeGraph(
-        staged.ros2, staged.env, staged.tmp / "logs", Path(scenario_path).resolve().parent
+        staged.env, staged.tmp / "logs", Path(scenario_path).resolve().parent, staged.executables
     )
     end = run_nodes(req, inputs, staged, nodes)
     after_stop(req, inputs, staged, nodes, end)

@@ -1,4 +1,6 @@
-"""The node processes of one run, started with ``ros2 run``, with their logs."""
+"""The node processes of one run, with their logs: each started as ``ros2 run`` would
+start it (:func:`attitude_tools.run.environment.node_executables`), without the ``ros2``
+process in between."""
 
 from __future__ import annotations
 
@@ -12,6 +14,7 @@ from typing import Any
 from attitude_core.contract import node_graph
 from attitude_core.contract.node_graph import NodeSpec
 from attitude_core.runtime.process_identity import OWNER_ENV, ProcessIdentity
+from attitude_tools.run.environment import node_executables
 from attitude_tools.run.processes import die_with_parent
 
 __all__ = ["NodeGraph"]
@@ -20,8 +23,16 @@ __all__ = ["NodeGraph"]
 class NodeGraph:
     """The four node processes of one run, with their logs."""
 
-    def __init__(self, ros2: str, env: dict[str, str], log_dir: Path, cwd: Path) -> None:
-        self.ros2, self.env, self.log_dir, self.cwd = ros2, env, log_dir, cwd
+    def __init__(
+        self,
+        env: dict[str, str],
+        log_dir: Path,
+        cwd: Path,
+        executables: dict[str, str] | None = None,
+    ) -> None:
+        """``executables``: each role's, found before (else found at its start)."""
+        self.env, self.log_dir, self.cwd = env, log_dir, cwd
+        self.executables = dict(executables or {})
         self.procs: dict[str, subprocess.Popen[bytes]] = {}
 
     def start(
@@ -37,12 +48,14 @@ class NodeGraph:
         for a lifecycle manager). ``piped``: stdin and stdout are pipes (the manager's
         commands and events), stderr the log."""
         name = spec.role if name is None else name
+        if spec.role not in self.executables:  # RunError when it is not installed
+            self.executables.update(node_executables(self.env, [spec]))
         env = {**self.env, OWNER_ENV: ProcessIdentity.current().encode()}  # parent watchdog
         managed = spec.parameters is not node_graph.MANAGER.parameters
         own = ["-p", "autostart:=true"] if autostart and managed else []
         with open(self.log_dir / f"{name}.log", "wb") as log:  # the child keeps its copy
             self.procs[name] = subprocess.Popen(
-                [self.ros2, "run", spec.package, spec.executable, "--ros-args", *own, *ros_args],
+                [self.executables[spec.role], "--ros-args", *own, *ros_args],
                 env=env,
                 cwd=self.cwd,
                 stdout=subprocess.PIPE if piped else log,

@@ -3,7 +3,8 @@
 
 1. :func:`check_inputs`: the scenario, ``--param`` and ``--out``, before anything is
    written or started;
-2. :func:`stage_run`: ``ros2``, the run's namespace and domain, the wall-time limit,
+2. :func:`stage_run`: the nodes' executables, the run's namespace and domain, the
+   wall-time limit,
    the staging directory beside ``--out`` (stale ones salvaged first);
 3. :func:`run_nodes`: start the nodes, wait for the end of the run, stop them;
 4. :func:`after_stop`: foreign publishers, the failed nodes' logs, the bag recovered;
@@ -42,6 +43,7 @@ from attitude_tools.bag.recovery import (
 from attitude_tools.output.rundir import OutputDirError, check_replaceable, publish, stage
 from attitude_tools.output.strict_json import dump_strict
 from attitude_tools.run.domain import DomainReservation, claim_domain
+from attitude_tools.run.environment import node_executables
 from attitude_tools.run.errors import NodeInputError, RunError
 from attitude_tools.run.graph import NodeGraph
 from attitude_tools.run.guard_report import foreign_publishers_logged, guard_failure
@@ -118,11 +120,12 @@ class CheckedInputs:
 
 @dataclass(frozen=True)
 class StagedRun:
-    """The run made ready: the nodes' environment (``ROS_DOMAIN_ID`` set), ``ros2``,
-    namespace, domain reservation, wall-time limit and staging directory."""
+    """The run made ready: the nodes' environment (``ROS_DOMAIN_ID`` set), their
+    executables (by role), namespace, domain reservation, wall-time limit and staging
+    directory."""
 
     env: dict[str, str]
-    ros2: str
+    executables: dict[str, str]
     namespace: str
     reservation: DomainReservation | None
     timeout_s: float
@@ -185,11 +188,9 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
 
 
 def stage_run(req: RunRequest, inputs: CheckedInputs, env: dict[str, str]) -> StagedRun:
-    """Find ``ros2``, claim the run's domain (in ``env``), salvage stale staging
-    directories, stage the run's directory beside ``--out``."""
-    ros2 = shutil.which("ros2", path=env["PATH"])
-    if ros2 is None:
-        raise RunError("no `ros2` command on PATH (run `bash tools/bootstrap`)")
+    """Find the nodes' executables, claim the run's domain (in ``env``), salvage stale
+    staging directories, stage the run's directory beside ``--out``."""
+    executables = node_executables(env, [*inputs.started, graph.MANAGER])  # RunError
     namespace = req.namespace or run_identity.run_namespace()
     reservation = claim_domain(env, sys.executable)  # DomainBusyError: nothing written
     timeout_s = req.timeout_s
@@ -204,7 +205,7 @@ def stage_run(req: RunRequest, inputs: CheckedInputs, env: dict[str, str]) -> St
         if reservation is not None:
             reservation.release()
         raise
-    return StagedRun(env, ros2, namespace, reservation, timeout_s, tmp)
+    return StagedRun(env, executables, namespace, reservation, timeout_s, tmp)
 
 
 def _stage_directory(scenario_path: str, out: Path) -> Path:
