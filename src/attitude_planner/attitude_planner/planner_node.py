@@ -128,12 +128,13 @@ class FepfPlannerNode(StackNode):
         self.out_mrp.header.stamp = self.out_rate.header.stamp = stamp_msg
         set_vector3(self.out_mrp.vector, result.target.sigma_t)
         set_vector3(self.out_rate.vector, result.target.omega_t)
+        self.publish(report=False)  # what the controller waits for, before the report
         self.out_margin.data = self.sky.min_margin_deg_single(t_s, sigma_bn)
         report = planner_diagnostics(
             self.guidance, result, step_s, self.out_margin.data, self.rejected
         )
         self.out_diag = self.diag.fill(stamp_msg, report)
-        self.publish()
+        self.publish(target=False)
         self.log_changes(stamp, result)
 
     def log_changes(self, stamp: int, result: GuidanceOutput) -> None:
@@ -155,11 +156,13 @@ class FepfPlannerNode(StackNode):
         """Stop the route thread (a route in progress is dropped)."""
         self.route_thread.shutdown(wait=False, cancel_futures=True)
 
-    def publish(self) -> None:
-        self.pub_mrp.publish(self.out_mrp)
-        self.pub_rate.publish(self.out_rate)
-        self.pub_margin.publish(self.out_margin)
-        self.pub_diag.publish(self.out_diag)
+    def publish(self, target: bool = True, report: bool = True) -> None:
+        if target:
+            self.pub_mrp.publish(self.out_mrp)
+            self.pub_rate.publish(self.out_rate)
+        if report:
+            self.pub_margin.publish(self.out_margin)
+            self.pub_diag.publish(self.out_diag)
 
 
 def main(args: list[str] | None = None) -> int:

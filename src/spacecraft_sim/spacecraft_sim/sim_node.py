@@ -125,12 +125,8 @@ class RigidBodySimNode(StackNode):
         self.do(decision)
 
     def do(self, d: Decision) -> None:
-        """Publish and log what the stepper decided."""
+        """Publish and log what the stepper decided; the state first (the loop waits)."""
         cv.log_events(self.get_logger(), d.logs)
-        if d.applied is not None and d.applied_stamp_ns is not None:
-            cv.set_stamp(self.msg_applied.header.stamp, d.applied_stamp_ns)
-            cv.set_vector3(self.msg_applied.wrench.torque, d.applied)
-            self.pub_applied.publish(self.msg_applied)
         if d.state is not None:
             if d.state.clock_ns is not None:  # lockstep only
                 cv.set_stamp(self.msg_clock.clock, d.state.clock_ns)
@@ -141,12 +137,16 @@ class RigidBodySimNode(StackNode):
             if self.sensors is not None:
                 self.sensors.measure(d.state.k, d.state.stamp_ns, d.state.sigma_bn, d.state.omega_b)
         if d.state is not None or d.resend:
-            if self.stepper.lockstep:  # /clock exists in lockstep only
-                self.pub_clock.publish(self.msg_clock)
             self.pub_att.publish(self.msg_att)
             self.pub_rate.publish(self.msg_rate)
             if self.sensors is not None:
                 self.sensors.publish()
+            if self.stepper.lockstep:  # /clock exists in lockstep only
+                self.pub_clock.publish(self.msg_clock)
+        if d.applied is not None and d.applied_stamp_ns is not None:
+            cv.set_stamp(self.msg_applied.header.stamp, d.applied_stamp_ns)
+            cv.set_vector3(self.msg_applied.wrench.torque, d.applied)
+            self.pub_applied.publish(self.msg_applied)
         if d.action == Action.FINISH:
             self.finish(0)
         elif d.action == Action.FAIL:
