@@ -50,7 +50,12 @@ def set_quaternion_from_mrp(q: Any, sigma_bn: Vec3Like) -> None:
 
 def mrp_from_quaternion(q: Any) -> npt.NDArray[np.float64]:
     """``sigma_BN`` (``|sigma| <= 1``) from a quaternion message (normalised first)."""
-    return np.array(mrp_from_quat_single(q.x, q.y, q.z, q.w))
+    return mrp_from_xyzw(q.x, q.y, q.z, q.w)
+
+
+def mrp_from_xyzw(x: float, y: float, z: float, w: float) -> npt.NDArray[np.float64]:
+    """``sigma_BN`` (``|sigma| <= 1``) from a quaternion's ``(x, y, z, w)`` (normalised)."""
+    return np.array(mrp_from_quat_single(x, y, z, w))
 
 
 def init_imu(msg: Any, gyro_noise_rad_s: float) -> None:
@@ -105,10 +110,13 @@ def log_events(logger: Any, events: Iterable[tuple[str, str]]) -> None:
 
 def bad_frame(msg: Any, topic: str) -> str | None:
     """Reason a stamped message is in the wrong frame for its contract topic, else None."""
-    expected = contract_topic(topic).frame
-    frame = msg.header.frame_id
-    if expected is not None and frame != expected:
-        return f"frame_id {frame!r}, expected {expected!r}"
+    return bad_frame_id(msg.header.frame_id, contract_topic(topic).frame)
+
+
+def bad_frame_id(frame_id: str, expected: str | None) -> str | None:
+    """Reason ``frame_id`` is not the ``expected`` frame (None: any), else None."""
+    if expected is not None and frame_id != expected:
+        return f"frame_id {frame_id!r}, expected {expected!r}"
     return None
 
 
@@ -121,7 +129,13 @@ def bad_vector(values: Sequence[float] | npt.NDArray[np.float64], name: str) -> 
 
 def bad_quaternion(q: Any, tolerance: float = 1e-3) -> str | None:
     """Reason a quaternion message is unusable: non-finite, zero or not of unit norm."""
-    x, y, z, w = q.x, q.y, q.z, q.w
+    return bad_quaternion_xyzw(q.x, q.y, q.z, q.w, tolerance)
+
+
+def bad_quaternion_xyzw(
+    x: float, y: float, z: float, w: float, tolerance: float = 1e-3
+) -> str | None:
+    """:func:`bad_quaternion` of a quaternion's ``(x, y, z, w)``."""
     norm = math.sqrt(x * x + y * y + z * z + w * w)
     if abs(norm - 1.0) <= tolerance:  # finite and of unit norm (NaN compares False)
         return None

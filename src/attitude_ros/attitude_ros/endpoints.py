@@ -20,7 +20,8 @@ def publisher(node: Any, name: str, **kwargs: Any) -> Any:
 
 def subscription(node: Any, name: str, callback: Callable[[Any], None], **kwargs: Any) -> Any:
     """A subscription of ``name`` with the contract's message class and subscriber QoS
-    (and ROS 2's QoS overrides on the state topics)."""
+    (and ROS 2's QoS overrides on the state topics); ``raw=True``: the callback takes
+    the serialized message (bytes, see :mod:`attitude_ros.cdr`)."""
     entry = c.topic(name)
     return node.create_subscription(
         c.message_class(entry.type_name),

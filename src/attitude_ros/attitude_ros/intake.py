@@ -1,12 +1,14 @@
 """Stamp-paired subscriptions for the planner and the controller (the ROS shell of
 :class:`attitude_core.runtime.stamp_pairing.StampPairing`).
 
-:func:`subscribe_paired` subscribes each input topic of a node with the contract's QoS.
-A message goes through the run guard (:meth:`attitude_ros.run_guard.RunGuard.admit`:
-only this run's publishers), the contract frame, the topic's value check (a
-``convert`` function: message -> ``(value, reason)``) and the pairing. Refused
-messages are logged (throttled) and counted; a complete stamp calls ``on_complete``;
-the last answered stamp, re-sent on the first topic, calls ``on_repeat``.
+:func:`subscribe_paired` subscribes each input topic of a node with the contract's QoS,
+raw: a message is read from its serialized form (:func:`attitude_ros.cdr.stamped`, its
+stamp, frame and floats), not built into rclpy's message objects. It goes through the
+run guard (:meth:`attitude_ros.run_guard.RunGuard.admit`: only this run's publishers),
+the contract frame, the topic's value check (a ``convert`` function: the message's
+floats -> ``(value, reason)``) and the pairing. Refused messages (malformed ones too)
+are logged (throttled) and counted; a complete stamp calls ``on_complete``; the last
+answered stamp, re-sent on the first topic, calls ``on_repeat``.
 """
 
 from __future__ import annotations
@@ -15,9 +17,14 @@ import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+from builtin_interfaces.msg import Time
+
 from attitude_core.runtime.plausibility import implausible_mrp, implausible_rate
 from attitude_core.runtime.stamp_pairing import Intake, StampPairing
-from attitude_ros.convert import bad_frame, bad_quaternion, mrp_from_quaternion, reject, vector3
+from attitude_ros import contract as c
+from attitude_ros.cdr import FLOATS, CdrError, stamped
+from attitude_ros.convert import bad_frame_id, bad_quaternion_xyzw, mrp_from_xyzw, reject
 from attitude_ros.endpoints import subscription
 from attitude_ros.run_guard import RunGuard
 
@@ -30,35 +37,32 @@ __all__ = [
     "target_rate_value",
 ]
 
-Convert = Callable[[Any], tuple[Any, str | None]]
-"""A message -> ``(value, None)``, or ``(None, reason)`` when its content is unusable."""
+Convert = Callable[[tuple[float, ...]], tuple[Any, str | None]]
+"""A message's floats -> ``(value, None)``, or ``(None, reason)`` when unusable."""
 
 
-def attitude_value(msg: Any) -> tuple[Any, str | None]:
-    """``sigma_BN`` from a ``QuaternionStamped`` (a unit, finite quaternion)."""
-    reason = bad_quaternion(msg.quaternion)
-    return (None, reason) if reason else (mrp_from_quaternion(msg.quaternion), None)
+def attitude_value(q: tuple[float, ...]) -> tuple[Any, str | None]:
+    """``sigma_BN`` from a ``QuaternionStamped``'s ``(x, y, z, w)`` (unit, finite)."""
+    reason = bad_quaternion_xyzw(*q)
+    return (None, reason) if reason else (mrp_from_xyzw(*q), None)
 
 
-def rate_value(msg: Any) -> tuple[Any, str | None]:
+def rate_value(v: tuple[float, ...]) -> tuple[Any, str | None]:
     """``omega_B`` (rad/s) from a ``Vector3Stamped``, within the plausible rate."""
-    v = vector3(msg.vector)
     reason = implausible_rate(v)
-    return (None, reason) if reason else (v, None)
+    return (None, reason) if reason else (np.array(v), None)
 
 
-def target_mrp_value(msg: Any) -> tuple[Any, str | None]:
+def target_mrp_value(v: tuple[float, ...]) -> tuple[Any, str | None]:
     """``sigma_RN`` from a ``Vector3Stamped`` (a plausible MRP)."""
-    v = vector3(msg.vector)
     reason = implausible_mrp(v, "target MRP")
-    return (None, reason) if reason else (v, None)
+    return (None, reason) if reason else (np.array(v), None)
 
 
-def target_rate_value(msg: Any) -> tuple[Any, str | None]:
+def target_rate_value(v: tuple[float, ...]) -> tuple[Any, str | None]:
     """``omega_t`` (target axes, rad/s) from a ``Vector3Stamped``."""
-    v = vector3(msg.vector)
     reason = implausible_rate(v, "target rate")
-    return (None, reason) if reason else (v, None)
+    return (None, reason) if reason else (np.array(v), None)
 
 
 def subscribe_paired(
@@ -77,10 +81,8 @@ def subscribe_paired(
     if len(inputs) != pairing.slots:
         raise ValueError(f"{len(inputs)} input topics for {pairing.slots} pairing slots")
     for slot, (name, convert) in enumerate(inputs):
-        sub = subscription(
-            node, name, _callback(node, guard, pairing, slot, name, convert, on_complete, on_repeat)
-        )
-        guard.watch(name, sub)
+        on_message = _callback(node, guard, pairing, slot, name, convert, on_complete, on_repeat)
+        guard.watch(name, subscription(node, name, on_message, raw=True))
 
 
 def _callback(
@@ -93,14 +95,22 @@ def _callback(
     on_complete: Callable[[int, Any, tuple[Any, ...]], None],
     on_repeat: Callable[[], None],
 ) -> Callable[[Any], None]:
-    def on_message(msg: Any) -> None:
+    entry = c.topic(name)
+    n_floats, frame = FLOATS[entry.type_name], entry.frame
+
+    def on_message(data: bytes) -> None:
         if not node.takes_input or not guard.admit(name):
             return  # inactive (a managed node), or a foreign writer
-        value, reason = None, bad_frame(msg, name)
+        try:
+            sec, nanosec, frame_id, floats = stamped(data, n_floats)
+        except CdrError as err:  # no stamp to pair it with: refused as a bad value
+            pairing.bad_values += 1
+            reject(node, name, f"malformed message: {err}", count=pairing.rejected)
+            return
+        value, reason = None, bad_frame_id(frame_id, frame)
         if reason is None:
-            value, reason = convert(msg)
-        stamp = msg.header.stamp
-        offer = pairing.offer(slot, stamp.sec, stamp.nanosec, time.time_ns(), value, reason)
+            value, reason = convert(floats)
+        offer = pairing.offer(slot, sec, nanosec, time.time_ns(), value, reason)
         if offer.intake is Intake.REPEAT:
             if slot == 0:  # a lockstep re-send: the same answer again
                 on_repeat()
@@ -111,6 +121,6 @@ def _callback(
         if offer.reason:  # accepted, with a note (the gate re-anchored)
             node.get_logger().warning(f"{name}: {offer.reason}")
         if offer.intake is Intake.COMPLETE:
-            on_complete(offer.stamp_ns, stamp, offer.values)
+            on_complete(offer.stamp_ns, Time(sec=sec, nanosec=nanosec), offer.values)
 
     return on_message
