@@ -422,37 +422,6 @@ def test_lockstep_finish_on_a_timeout_holds_the_last_torque():
     assert s.timeouts == 1 and s.k == 1
 
 
-def test_lockstep_non_finite_torque_is_rejected_and_counted():
-    s = make()
-    _, t = start(s)
-    for n, bad in enumerate(([np.nan, 0.0, 0.0], [0.0, np.inf, 0.0], [0.0, 0.0, -np.inf]), 1):
-        d = s.on_torque(t, 0, np.array(bad))
-        assert d.action is Action.REJECT and d.state is None
-        assert d.reason == f"torque has a non-finite element {list(map(float, bad))}"
-        assert s.rejected == n
-    assert s.k == 0 and s.waiting_stamp == 0  # still waiting for step 0
-    assert s.on_torque(t, 0, np.zeros(3)).action is Action.ADVANCE
-
-
-@pytest.mark.parametrize("mode", [LOCKSTEP, REALTIME])
-def test_torque_in_another_frame_is_rejected_and_counted(mode):
-    """The contract's torque is in body axes (frame ``body``): anything else is refused,
-    counted, and changes nothing."""
-    s = make(time_mode=mode)
-    _, t = start(s)
-    u = torques(1)[0]
-    for n, frame in enumerate(("inertial", "", "Body"), 1):
-        d = s.on_torque(t, 0, u, frame)
-        assert d.action is Action.REJECT and d.state is None and d.applied is None
-        assert d.reason == f"frame_id {frame!r}, expected 'body'"
-        assert s.rejected == n
-    assert s.k == 0 and s.torque_stamp == -1
-    if mode == REALTIME:
-        s.on_timer(t, 0)  # state 0 is published: the torque answers it
-    accepted = s.on_torque(t, 0, u, "body").action
-    assert accepted is (Action.ADVANCE if mode == LOCKSTEP else Action.ACCEPT)
-
-
 def test_lockstep_deadline_without_a_waiting_state_does_nothing():
     """Defensive guard: reachable only with no state awaiting its torque."""
     s = make(torque_timeout_s=1.0)

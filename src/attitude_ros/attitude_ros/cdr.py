@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import struct
 
-__all__ = ["FLOATS", "CdrError", "stamped"]
+__all__ = ["FLOATS", "CdrError", "stamped", "read"]
 
 FLOATS = {
     "geometry_msgs/msg/QuaternionStamped": 4,  # x, y, z, w
@@ -51,3 +51,13 @@ def stamped(data: bytes, n_floats: int) -> tuple[int, int, str, tuple[float, ...
     if start + values.size > len(data):
         raise CdrError(f"{len(data)} bytes, {start + values.size} needed for {n_floats} floats")
     return sec, nanosec, frame_id, values.unpack_from(data, start)
+
+
+def read(data: bytes, n_floats: int) -> tuple[int, str, tuple[float, ...], str | None]:
+    """:func:`stamped` with the stamp in integer ns: ``(stamp_ns, frame_id, floats,
+    None)``, or ``(0, "", zeros, reason)`` for bytes that are not the message."""
+    try:
+        sec, nanosec, frame_id, floats = stamped(data, n_floats)
+    except CdrError as err:
+        return 0, "", (0.0,) * n_floats, str(err)
+    return sec * 1_000_000_000 + nanosec, frame_id, floats, None

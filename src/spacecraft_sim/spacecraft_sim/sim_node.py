@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import time
 
-from geometry_msgs.msg import WrenchStamped
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 
 from attitude_core.contract import node_graph
 from attitude_core.runtime.sim_stepper import Action, Decision, SimStepper
+from attitude_ros import cdr
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
 from attitude_ros.endpoints import message, publisher, subscription
@@ -49,20 +49,19 @@ class RigidBodySimNode(StackNode):
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
         state_att, state_rate = c.TRUTH_TOPICS if sensing else c.STATE_TOPICS
         self.pub_clock, self.pub_att = publisher(self, c.CLOCK), publisher(self, state_att)
-        self.pub_rate = publisher(self, state_rate)
+        self.pub_rate, self.pub_applied = (
+            publisher(self, state_rate),
+            publisher(self, c.APPLIED_TORQUE),
+        )
         self.msg_att, self.msg_rate = message(state_att), message(state_rate)
         self.sensors = None if sc.sensors is None else SensorOut(self, sc, sc.sensors)
-        self.pub_applied = publisher(self, c.APPLIED_TORQUE)
         self.msg_clock, self.msg_applied = ClockMsg(), message(c.APPLIED_TORQUE)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.guard = RunGuard(
-            self,
-            self.spec,
-            sc,
-            lambda code, reason: self.finish(code),
-            stamp_ns=lambda: self.stepper.state_stamp or 0,
+        stamp = lambda: self.stepper.state_stamp or 0
+        self.guard = RunGuard(self, self.spec, sc, lambda code, _: self.finish(code), stamp)
+        self.sub_torque = self.guard.watch(
+            c.TORQUE, subscription(self, c.TORQUE, self.on_torque, raw=True)
         )
-        self.sub_torque = self.guard.watch(c.TORQUE, subscription(self, c.TORQUE, self.on_torque))
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
             f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "
@@ -115,11 +114,11 @@ class RigidBodySimNode(StackNode):
         if self.active:
             self.do(self.stepper.on_timer(time.monotonic(), self.get_clock().now().nanoseconds))
 
-    def on_torque(self, msg: WrenchStamped) -> None:
+    def on_torque(self, data: bytes) -> None:
         if not self.active or not self.guard.admit(c.TORQUE):
             return
-        stamp, u = cv.stamp_ns(msg.header.stamp), cv.vector3(msg.wrench.torque)
-        decision = self.stepper.on_torque(time.monotonic(), stamp, u, msg.header.frame_id)
+        stamp, frame_id, w, malformed = cdr.read(data, 6)  # raw: force, then torque
+        decision = self.stepper.on_torque(time.monotonic(), stamp, w[3:], frame_id, malformed)
         if decision.action == Action.REJECT:
             cv.reject(self, c.TORQUE, decision.reason or "", count=self.stepper.rejected)
         self.do(decision)

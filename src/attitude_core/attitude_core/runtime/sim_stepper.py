@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import enum
 from collections import deque
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -254,9 +255,17 @@ class SimStepper:
     # -- inputs ---------------------------------------------------------------------
 
     def on_torque(
-        self, now: float, stamp_ns: int, torque: Vector, frame_id: str = BODY_FRAME
+        self,
+        now: float,
+        stamp_ns: int,
+        torque: Vector | Sequence[float],
+        frame_id: str = BODY_FRAME,
+        malformed: str | None = None,
     ) -> Decision:
-        """A commanded torque (body axes, N m) stamped ``stamp_ns``, in ``frame_id``."""
+        """A commanded torque (body axes, N m) stamped ``stamp_ns``, in ``frame_id``;
+        ``malformed``: why the message could not be read (refused and counted)."""
+        if malformed:
+            return self._reject(f"malformed message: {malformed}")
         u = np.asarray(torque, dtype=float)
         if frame_id != BODY_FRAME:
             return self._reject(f"frame_id {frame_id!r}, expected {BODY_FRAME!r}")
