@@ -11,6 +11,12 @@ continues it. At the end: ``DIR/runs.parquet``, ``DIR/summary.json``,
 
 Exit codes: 0 complete, 1 a task failed, 2 bad input (SPEC, ``--out``, scheduler),
 130 interrupted.
+
+What only this driver needs (pandas, pyarrow, matplotlib: the table, the statistics,
+the report) is imported when used, not with this module: a worker process started by
+``multiprocessing``'s spawn imports the main module again (the ``attitude-campaign``
+script, so this one), and never uses them. The driver loads them in a thread while its
+cluster starts, and writes its outputs while the cluster closes.
 """
 
 from __future__ import annotations
@@ -22,6 +28,7 @@ import os
 import shutil
 import signal
 import sys
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -32,12 +39,12 @@ from attitude_tools.output.strict_json import dump_strict
 
 from .progress import Progress
 from .spec import CampaignSpec, SpecError, load_spec
-from .stats import summarize_campaign, worst_runs
-from .store import PartWriter, done_tasks, read_parts, write_table
 from .task import TIMING_COLUMNS, reproducer, run_task
 
 if TYPE_CHECKING:
     from distributed import Client
+
+    from .store import PartWriter
 
 __all__ = ["main", "run_campaign", "CONNECT_TIMEOUT_S", "WORST"]
 
@@ -64,6 +71,8 @@ def _json_ready(value: Any) -> Any:
 def _connect(workers: int | None, scheduler: str | None) -> tuple[Client, str]:
     from distributed import Client, LocalCluster
 
+    # The driver's own modules load while the workers start (the main thread waits).
+    threading.Thread(target=_preload_driver_modules).start()
     if scheduler is not None:
         try:
             client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")  # type: ignore[no-untyped-call]
@@ -105,9 +114,18 @@ def _prepare_out(spec: CampaignSpec, out: Path, resume: bool) -> None:
             )
 
 
+def _preload_driver_modules() -> None:
+    """Import what the driver alone uses (pandas, pyarrow, matplotlib), meant for a
+    thread while the cluster starts (the main thread then mostly waits for it)."""
+    from . import report, stats, store  # noqa: F401
+
+
 def _finish(
     spec: CampaignSpec, out: Path, info: dict[str, Any], log: Callable[[str], None]
 ) -> dict[str, Any]:
+    from .stats import summarize_campaign, worst_runs
+    from .store import read_parts, write_table
+
     frame = read_parts(out)
     write_table(frame, out / "runs.parquet")
     summary: dict[str, Any] = summarize_campaign(frame) | {"campaign": info}
@@ -155,6 +173,8 @@ def run_campaign(
     client, engine = _connect(workers, scheduler)
     t0 = time.monotonic()
     try:
+        from .store import PartWriter, done_tasks  # loaded by now (_connect's thread)
+
         out.mkdir(parents=True, exist_ok=True)
         if not (out / SPEC_COPY).exists():
             shutil.copyfile(spec.source, out / SPEC_COPY)
@@ -170,9 +190,11 @@ def run_campaign(
         interrupted = _run_tasks(client, spec, todo, writer, progress)
         tasks_wall = time.monotonic() - t_tasks
         progress.close()
-    finally:
+    except BaseException:
         _close(client)
+        raise
     if interrupted:
+        _close(client)
         left = len(spec.tasks) - len(done_tasks(out))
         log(f"attitude-campaign: interrupted; {left} task(s) left: --resume continues")
         return 130
@@ -185,13 +207,39 @@ def run_campaign(
         "base_scenario": spec.base_scenario,
         "tasks": len(spec.tasks),
         "engine": engine,
-        "wall_time_s": time.monotonic() - t0,  # connected to outputs written (this run)
+        "wall_time_s": time.monotonic() - t0,  # connected to the last result (this run)
         "tasks_wall_s": tasks_wall,  # from the first submission to the last result
         "resumed": bool(done),
         "timing_columns": list(TIMING_COLUMNS),
     }
-    _finish(spec, out, info, log)
+    closing = _Closing(client)  # the workers stop while the outputs are written
+    try:
+        _finish(spec, out, info, log)
+    except BaseException:
+        closing.thread.join()
+        raise
+    closing.wait()
     return 0
+
+
+class _Closing:
+    """:func:`_close` in a thread; :meth:`wait` joins it and raises what it raised."""
+
+    def __init__(self, client: Client) -> None:
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, args=(client,), daemon=True)
+        self.thread.start()
+
+    def _run(self, client: Client) -> None:
+        try:
+            _close(client)
+        except BaseException as exc:  # noqa: BLE001 (re-raised by wait(), in the caller's thread)
+            self.error = exc
+
+    def wait(self) -> None:
+        self.thread.join()
+        if self.error is not None:
+            raise self.error
 
 
 def _run_tasks(
