@@ -552,3 +552,24 @@ def test_copied_bag_still_reads(recorded, tmp_path):
     bag_dir, written, _ = recorded
     copy = shutil.copytree(bag_dir, tmp_path / "copy")
     assert sum(1 for _ in read_bag(str(copy))) == len(written)
+
+
+def test_steps_per_s_is_the_stepping_rate_after_the_loops_first_answer():
+    """A first state that waits for a peer still matching (re-sent meanwhile) is start-up:
+    the rate counts from the state after the first answer, as the bare ring counts after
+    its warm-up."""
+    import numpy as np
+
+    from attitude_core.closed_loop import run_closed_loop
+    from attitude_core.config.scenario import load_scenario
+    from attitude_tools.bag.run_record import BagRun, summarize_bag
+
+    sc = load_scenario(os.path.join(ROOT, "scenarios", "case1.yaml"))
+    run = run_closed_loop(sc)
+    n = len(run.t)
+    stamps = np.arange(n, dtype=np.int64) * 100_000_000
+    wall = 10**18 + 2 * 10**6 * np.arange(n, dtype=np.int64)  # 500 steps/s
+    wall[1:] += 700 * 10**6  # the first answer came 0.7 s late
+    summary = summarize_bag(BagRun(run, stamps, wall, 0))
+    assert summary["steps_recorded"] == n
+    assert summary["steps_per_s"] == pytest.approx(500.0, rel=1e-12)

@@ -216,11 +216,15 @@ def run_from_bag(
 
 def summarize_bag(bag_run: BagRun) -> dict[str, Any]:
     """``attitude_core.record.trajectory.summarize`` of the recorded run, plus the recording's own
-    figures: ``steps_recorded`` and ``steps_per_s`` (from the recorder's receive times)."""
+    figures: ``steps_recorded`` and ``steps_per_s``, the stepping rate from the recorder's
+    receive times of the states, from the first state after the loop's first answer (the
+    wait for that answer is the start-up's, as a peer still matching can make it: the
+    bare rclpy ring of ``bench/ros_ring.py`` does not count its start either)."""
     summary = summarize(bag_run.run).to_json()
     wall = bag_run.receive_wall_ns
-    span_s = (int(wall[-1]) - int(wall[0])) * 1e-9
+    first = 1 if len(wall) > 2 else 0
+    span_s = (int(wall[-1]) - int(wall[first])) * 1e-9
     steps = len(bag_run.stamps_ns)
     summary["steps_recorded"] = steps
-    summary["steps_per_s"] = (steps - 1) / span_s if span_s > 0 else None
+    summary["steps_per_s"] = (steps - 1 - first) / span_s if span_s > 0 else None
     return summary

@@ -56,7 +56,7 @@ ROWS = (
     ("planner_step_us_median", "planner step time, median (/diagnostics)", "us"),
     ("planner_step_us_p99", "planner step time, p99 (/diagnostics)", "us"),
     ("steps_recorded", "steps recorded", ""),
-    ("steps_per_s", "steps recorded per wall-clock second", "1/s"),
+    ("steps_per_s", "steps per wall-clock second (after the loop's first answer)", "1/s"),
     ("sim_time_s", "scenario time limit", "s"),
     ("dt_s", "time step", "s"),
 )
