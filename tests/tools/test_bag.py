@@ -564,7 +564,8 @@ def test_steps_per_s_is_the_stepping_rate_after_the_loops_first_answer():
     from attitude_core.config.scenario import load_scenario
     from attitude_tools.bag.run_record import BagRun, summarize_bag
 
-    sc = load_scenario(os.path.join(ROOT, "scenarios", "case1.yaml"))
+    root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    sc = load_scenario(os.path.join(root, "scenarios", "case1.yaml"))
     run = run_closed_loop(sc)
     n = len(run.t)
     stamps = np.arange(n, dtype=np.int64) * 100_000_000
