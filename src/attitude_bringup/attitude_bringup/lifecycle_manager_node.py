@@ -257,6 +257,16 @@ class LifecycleManager:
                 return
             rclpy.spin_once(self.node, timeout_sec=POLL_S)
 
+    def has_gone(self, name: str) -> bool:
+        """Whether ``name``'s process has ended: attitude-run says so with a line
+        ``gone NODE ...`` during the bring-down (a node may end by itself meanwhile,
+        e.g. the simulator at the scenario's end: no waiting on its services then)."""
+        while (line := self.command()) is not None:
+            words = line.split()
+            if words[:1] == ["gone"]:
+                self.gone.update(words[1:])
+        return name in self.gone
+
     def bring_down(self) -> None:
         """Deactivate, then shut down, in reverse order; a node that is gone (exited,
         or not in the graph) is skipped."""
@@ -264,7 +274,8 @@ class LifecycleManager:
         order = [n for n in bring_down_order(self.names) if n in alive]
         for label in ("deactivate", "shutdown"):
             for name in order:
-                state = self.nodes[name].state(1.0)
+                gone = lambda name=name: self.has_gone(name)
+                state = None if gone() else self.nodes[name].state(1.0, gone)
                 if (
                     state is None
                     or state == "finalized"
@@ -272,7 +283,7 @@ class LifecycleManager:
                 ):
                     continue
                 self.watch.request(name, label)
-                if self.nodes[name].transition(label, 5.0):
+                if self.nodes[name].transition(label, 5.0, gone):
                     self.watch.settle(name, TRANSITION_GOALS[label])
 
 

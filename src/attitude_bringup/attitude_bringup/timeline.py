@@ -3,8 +3,10 @@ written to the bag, and when the recording may stop.
 
 Stamped messages are logged at their own stamp; unstamped ones (status, margin), a
 ``/diagnostics`` identity stamped zero and messages whose stamp is implausible
-(:func:`attitude_core.runtime.recording.implausible_stamp`) at the latest plausible
-stamp, held until the first one arrives. Implausible stamps are counted; a warning is
+(:func:`attitude_core.runtime.recording.implausible_stamp`, judged against the latest
+plausible stamp received, also past the recording's stop: a loop that runs on until it
+is brought down is no stray) at the latest stamp recorded, held until the first one
+arrives. Implausible stamps are counted; a warning is
 given at once, then at most every ``BAD_STAMP_WARN_EVERY_S`` of wall time.
 """
 
@@ -107,7 +109,8 @@ class Timeline:
             scenario_time_s,
             warn,
         )
-        self.last_stamp_ns: int | None = None
+        self.last_stamp_ns: int | None = None  # the latest stamp recorded
+        self.timeline_ns: int | None = None  # the latest plausible stamp, past the stop too
         self.unstamped: list[tuple[str, bytes, int]] = []  # before the first stamp
         self.bad_stamps, self._bad_warned_at = 0, -float("inf")
         self.write_error: BagWriteError | None = None  # the first failed write; then no more
@@ -161,9 +164,9 @@ class Timeline:
             sec, nanosec = raw_stamp(data)
             # A zero stamp on /diagnostics: a node's run identity before its first state.
             unstamped = name == DIAGNOSTICS and sec == 0 and nanosec == 0
-            if not unstamped:
+            if not unstamped:  # judged against the run's timeline, which goes on past the stop
                 bad = implausible_stamp(
-                    sec, nanosec, self.last_stamp_ns, wall_ns, self.scenario_time_s
+                    sec, nanosec, self.timeline_ns, wall_ns, self.scenario_time_s
                 )
             if bad is not None:
                 self.on_bad_stamp(name, sec, nanosec, bad, now_s)
@@ -174,6 +177,7 @@ class Timeline:
                 self.writer.write(name, data, self.last_stamp_ns, wall_ns)
             return _HELD
         log_time = sec * NS_PER_S + nanosec
+        self.timeline_ns = max(log_time, self.timeline_ns or log_time)
         if not self.stop.on_stamped(name, log_time, now_s):
             return _PAST_STOP
         self.last_stamp_ns = max(log_time, self.last_stamp_ns or log_time)

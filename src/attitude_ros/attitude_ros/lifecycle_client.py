@@ -4,6 +4,7 @@ its parameters (``rcl_interfaces``), driven from one rclpy node by spinning it."
 
 from __future__ import annotations
 
+import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -14,7 +15,10 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
-__all__ = ["LifecycleClient"]
+__all__ = ["LifecycleClient", "GONE_POLL_S"]
+
+GONE_POLL_S = 0.02
+"""How often a wait that may end with the node's process asks whether it has, s."""
 
 
 def _on_transition(event: Any, name: str, on_event: Callable[[str, str, str], None]) -> None:
@@ -50,27 +54,41 @@ class LifecycleClient:
         services = self.change.service_is_ready() and self.get.service_is_ready()
         return bool(services and self.events.get_publisher_count() > 0)
 
-    def _call(self, client: Any, request: Any, timeout_s: float) -> Any:
+    def _call(
+        self, client: Any, request: Any, timeout_s: float, gone: Callable[[], bool] | None
+    ) -> Any:
         future = client.call_async(request)
-        if self.executor is not None:
-            self.executor.spin_until_future_complete(future, timeout_sec=timeout_s)
-        else:
-            rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout_s)
+        if gone is None:
+            if self.executor is not None:
+                self.executor.spin_until_future_complete(future, timeout_sec=timeout_s)
+            else:
+                rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout_s)
+        else:  # waited for in short slices: a node whose process has ended answers never
+            deadline = time.monotonic() + timeout_s
+            while not future.done() and time.monotonic() < deadline and not gone():
+                if self.executor is not None:
+                    self.executor.spin_until_future_complete(future, timeout_sec=GONE_POLL_S)
+                else:
+                    rclpy.spin_until_future_complete(self.node, future, timeout_sec=GONE_POLL_S)
         if not future.done():
             client.remove_pending_request(future)
             return None
         return future.result()
 
-    def state(self, timeout_s: float) -> str | None:
-        """The node's current state label; None when it does not answer in time."""
-        response = self._call(self.get, GetState.Request(), timeout_s)
+    def state(self, timeout_s: float, gone: Callable[[], bool] | None = None) -> str | None:
+        """The node's current state label; None when it does not answer in time (or
+        ``gone()`` turns true meanwhile: its process has ended)."""
+        response = self._call(self.get, GetState.Request(), timeout_s, gone)
         return None if response is None else str(response.current_state.label)
 
-    def transition(self, label: str, timeout_s: float) -> bool | None:
+    def transition(
+        self, label: str, timeout_s: float, gone: Callable[[], bool] | None = None
+    ) -> bool | None:
         """Request the transition ``label`` (configure, activate, ...): whether it
-        succeeded; None when the node did not answer within ``timeout_s``."""
+        succeeded; None when the node did not answer within ``timeout_s`` (or ``gone()``
+        turned true meanwhile)."""
         request = ChangeState.Request(transition=Transition(label=label))
-        response = self._call(self.change, request, timeout_s)
+        response = self._call(self.change, request, timeout_s, gone)
         return None if response is None else bool(response.success)
 
     def transition_async(self, label: str) -> Any:

@@ -1,18 +1,24 @@
 """``attitude-run``'s end of the run's lifecycle manager process
 (``attitude_bringup lifecycle_manager``): its events, read from its stdout on a thread
 (:func:`attitude_core.runtime.bringup.parse_event`), and its commands on its stdin
-(``activate`` after a hold, ``stop`` with the nodes that have exited already)."""
+(``activate`` after a hold, ``stop`` with the nodes that have exited already, ``gone``
+with those that exit during the bring-down)."""
 
 from __future__ import annotations
 
 import queue
 import subprocess
 import threading
+import time
+from collections.abc import Callable
 from typing import Any
 
 from attitude_core.runtime.bringup import parse_event
 
-__all__ = ["ManagerLink"]
+__all__ = ["ManagerLink", "POLL_S"]
+
+POLL_S = 0.02
+"""How often :meth:`ManagerLink.wait` calls its ``on_poll``, s."""
 
 
 class ManagerLink:
@@ -54,10 +60,17 @@ class ManagerLink:
             return False
         return True
 
-    def wait(self, timeout_s: float) -> bool:
-        """Wait for the manager to exit; whether it did."""
-        try:
-            self.proc.wait(timeout_s)
-        except subprocess.TimeoutExpired:
-            return False
-        return True
+    def wait(self, timeout_s: float, on_poll: Callable[[], None] | None = None) -> bool:
+        """Wait for the manager to exit; whether it did. ``on_poll`` is called every
+        :data:`POLL_S` meanwhile (attitude-run tells the manager of nodes that end)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            if on_poll is not None:
+                on_poll()
+            try:
+                self.proc.wait(min(POLL_S, max(0.0, deadline - time.monotonic())))
+            except subprocess.TimeoutExpired:
+                if time.monotonic() >= deadline:
+                    return False
+                continue
+            return True

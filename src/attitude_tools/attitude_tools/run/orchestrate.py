@@ -461,7 +461,19 @@ def _stop_nodes(
     loop, observers = nodes_graph.stop_order
     exited = nodes.exited()
     gone = [link.names[n.role] for n in started if n.role in exited] if link else []
-    if link is not None and link.send(" ".join(["stop", *gone])) and link.wait(MANAGER_GRACE_S):
+
+    def report_exits() -> None:  # a node that ends now: the manager must not wait on it
+        assert link is not None
+        ended = {link.names[n.role] for n in started if n.role in nodes.exited()}
+        new = sorted(ended.difference(gone))
+        if new and link.send(" ".join(["gone", *new])):
+            gone.extend(new)
+
+    if (
+        link is not None
+        and link.send(" ".join(["stop", *gone]))
+        and link.wait(MANAGER_GRACE_S, report_exits)
+    ):
         nodes.wait_exit([n.role for n in started], NODE_GRACE_S)  # finalized: exiting
     codes = nodes.stop([n.role for n in loop if n in started], NODE_GRACE_S)
     codes.update(nodes.stop([n.role for n in observers], RECORDER_GRACE_S))
