@@ -1,5 +1,6 @@
 """The shortcuts a campaign run takes give what the long way gave: a draw is loaded from
-the values its reproducer file holds, without writing and reading that file."""
+the values its reproducer file holds, without writing and reading that file; short runs
+share a Dask task, with the rows of one run per task."""
 
 from __future__ import annotations
 
@@ -7,12 +8,17 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import pandas as pd
+import pyarrow.parquet as pq
 import pytest
+import yaml
 
 from attitude_core.config.scenario import flatten_parameters, loads_scenario
 from attitude_core.yamlio import load_strict
+from attitude_tools.campaign.cli import run_campaign
 from attitude_tools.campaign.draw import as_read_back, base_parameters, draw_run, scenario_text
 from attitude_tools.campaign.spec import load_spec
+from attitude_tools.campaign.task import TIMING_COLUMNS, batches, run_task
 
 ROOT = Path(__file__).resolve().parents[2]
 SPECS = sorted((ROOT / "campaigns").glob("*.yaml"))
@@ -47,3 +53,50 @@ def test_a_draw_is_loaded_from_the_values_its_reproducer_holds(spec_path):
         read = flatten_parameters(load_strict(text)["/**"]["ros__parameters"])
         assert _typed(read) == _typed(as_read_back(draw.flat))
         assert _same(loads_scenario(text, draw.scenario.source), draw.scenario)
+
+
+def _spec(tmp_path: Path, runs: int, sim_time_s: float) -> Path:
+    campaign = {
+        "name": "cost",
+        "runs": runs,
+        "seed": 5,
+        "base_scenario": str(ROOT / "scenarios" / "case1.yaml"),
+        "sim_time_s": sim_time_s,
+        "dispersions": {
+            "attitudes": "uniform",
+            "instruments": {"count": [1, 2], "half_angle_deg": [10.0, 30.0]},
+            "bright_objects": {"count": [2, 4]},
+        },
+        "planner_variants": ["improved", "paper"],
+    }
+    path = tmp_path / f"cost_{runs}_{sim_time_s:g}.yaml"
+    path.write_text(yaml.safe_dump({"campaign": campaign}, sort_keys=False))
+    return path
+
+
+def test_short_runs_share_a_dask_task_and_long_ones_do_not(tmp_path):
+    for runs, sim_time_s, workers, size in [
+        (100, 150.0, 1, 5),  # 1500 steps: five to a task
+        (100, 150.0, 2, 5),
+        (20, 150.0, 2, 2),  # 40 tasks, 16 groups at least
+        (6, 150.0, 2, 1),
+        (50, 400.0, 1, 2),
+        (50, 600.0, 1, 1),
+    ]:
+        spec = load_spec(_spec(tmp_path, runs, sim_time_s))
+        groups = batches(spec, spec.tasks, workers)
+        assert [t for g in groups for t in g] == list(spec.tasks)
+        assert max(len(g) for g in groups) == size
+        assert all(len(g) == size for g in groups[:-1])
+
+
+@pytest.mark.slow
+def test_a_campaign_of_batched_runs_gives_the_rows_of_single_ones(tmp_path):
+    spec = load_spec(_spec(tmp_path, 12, 5.0))
+    assert len(batches(spec, spec.tasks, 1)[0]) == 3  # 24 tasks: 8 groups of 3
+    out = tmp_path / "out"
+    assert run_campaign(spec, out, workers=1, log=lambda msg: None) == 0
+    got = pq.read_table(out / "runs.parquet").to_pandas().drop(columns=list(TIMING_COLUMNS))
+    rows = [run_task(spec, i, v) for i, v in spec.tasks]
+    expected = pd.DataFrame(rows).sort_values(["run", "variant"]).reset_index(drop=True)
+    pd.testing.assert_frame_equal(got, expected.drop(columns=list(TIMING_COLUMNS)))

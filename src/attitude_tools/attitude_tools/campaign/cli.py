@@ -1,7 +1,8 @@
 """``attitude-campaign SPEC.yaml --out DIR [--workers N | --scheduler ADDR] [--resume]``.
 
-Runs every ``(run, variant)`` of a SPEC (:mod:`.spec`) as a Dask task (:func:`.task.run_task`,
-the offline closed loop) on a ``LocalCluster`` of ``--workers`` processes (default: one
+Runs every ``(run, variant)`` of a SPEC (:mod:`.spec`) through the offline closed loop
+(:func:`.task.run_task`), a few consecutive short runs per Dask task
+(:func:`.task.batches`), on a ``LocalCluster`` of ``--workers`` processes (default: one
 per core) or on a running cluster (``--scheduler tcp://HOST:PORT``, started with
 ``dask scheduler`` and ``dask worker``). Results are written as they complete
 (``DIR/parts/``, :mod:`.store`); a worker that dies has its tasks retried elsewhere.
@@ -39,7 +40,7 @@ from attitude_tools.output.strict_json import dump_strict
 
 from .progress import Progress
 from .spec import CampaignSpec, SpecError, load_spec
-from .task import TIMING_COLUMNS, reproducer, run_task
+from .task import TIMING_COLUMNS, batches, reproducer, run_tasks
 
 if TYPE_CHECKING:
     from distributed import Client
@@ -254,24 +255,22 @@ def _run_tasks(
 
     if not todo:
         return False
-    keys = [f"attitude-campaign-{spec.name}-{spec.seed}-{i}-{v}" for i, v in todo]
-    futures = client.map(
-        run_task,
-        [spec] * len(todo),
-        [i for i, _ in todo],
-        [v for _, v in todo],
-        key=keys,
-        pure=False,
-        retries=2,
-    )
+    groups = batches(spec, todo, sum(client.nthreads().values()))  # type: ignore[no-untyped-call]
+    keys = [
+        f"attitude-campaign-{spec.name}-{spec.seed}-{g[0][0]}-{g[0][1]}"
+        + (f"+{len(g) - 1}" if len(g) > 1 else "")
+        for g in groups
+    ]
+    futures = client.map(run_tasks, [spec] * len(groups), groups, key=keys, pure=False, retries=2)
     buffer: list[dict[str, Any]] = []
     flushed = time.monotonic()
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)
     try:
         for future in as_completed(futures):  # type: ignore[no-untyped-call]
-            row = future.result()  # a task that failed its retries raises here
-            buffer.append(row)
-            progress.update(row["outcome"])
+            rows = future.result()  # a task that failed its retries raises here
+            buffer += rows
+            for row in rows:
+                progress.update(row["outcome"])
             if time.monotonic() - flushed >= FLUSH_S:
                 writer.write(buffer)
                 buffer, flushed = [], time.monotonic()

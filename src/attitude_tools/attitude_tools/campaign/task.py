@@ -1,15 +1,17 @@
 """One campaign task: run ``i`` with one planner variant through the offline closed loop
 (the same core as the nodes), as one row of the results table.
 
-:func:`run_task` is what the Dask workers execute; it depends only on the SPEC and
-``(i, variant)``. Timing columns (``*_s`` walls, the planner step median) are the only
-ones that differ between two executions of the same task.
+:func:`run_task` depends only on the SPEC and ``(i, variant)``; the Dask workers run a
+few of them per task (:func:`run_tasks` on a group of :func:`batches`). Timing columns
+(``*_s`` walls, the planner step median) are the only ones that differ between two
+executions of the same task.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from typing import Any
 
 from attitude_core.closed_loop import run_closed_loop
@@ -19,11 +21,27 @@ from attitude_core.record.summary import summarize
 from .draw import base_parameters, draw_run, scenario_text
 from .spec import CampaignSpec
 
-__all__ = ["OUTCOMES", "FAILURES", "TIMING_COLUMNS", "outcome_of", "run_task", "reproducer"]
+__all__ = [
+    "OUTCOMES",
+    "FAILURES",
+    "TIMING_COLUMNS",
+    "BATCH_STEPS",
+    "outcome_of",
+    "run_task",
+    "run_tasks",
+    "batches",
+    "reproducer",
+]
 
 OUTCOMES = ("reached", "violated", "stuck", "infeasible", "blocked", "not_reached")
 FAILURES = ("violated", "infeasible", "blocked", "stuck", "not_reached")  # worst first
 TIMING_COLUMNS = ("planner_step_us_median", "wall_time_s", "loop_s", "metrics_s", "task_s")
+BATCH_STEPS = 8000
+"""Simulated steps of the runs one Dask task may hold (:func:`batches`): four runs of
+150 s at 0.1 s, two of 400 s, one of 600 s."""
+BATCHES_PER_WORKER = 8
+"""Tasks per worker at least, when there are enough runs (the end of a campaign is
+shared out evenly)."""
 
 
 def outcome_of(summary: dict[str, Any]) -> str:
@@ -134,3 +152,25 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
     }
     row["task_s"] = time.perf_counter() - t0
     return row
+
+
+def run_tasks(spec: CampaignSpec, tasks: Sequence[tuple[int, str]]) -> list[dict[str, Any]]:
+    """The rows of ``tasks`` (``(i, variant)`` pairs), in order: what one Dask task runs
+    (:func:`batches`)."""
+    return [run_task(spec, i, variant) for i, variant in tasks]
+
+
+def batches(
+    spec: CampaignSpec, todo: Sequence[tuple[int, str]], workers: int
+) -> list[list[tuple[int, str]]]:
+    """``todo`` in consecutive groups, one Dask task each: as many runs as fit in
+    :data:`BATCH_STEPS` simulated steps, and at least :data:`BATCHES_PER_WORKER` groups
+    per worker when there are enough runs. Scheduling a Dask task costs about 1 ms of
+    its worker and 4 ms of the driver; a short run takes about 60 ms. A group is retried
+    whole, and its rows reach the driver together."""
+    base = base_parameters(spec)
+    sim_time_s = spec.sim_time_s if spec.sim_time_s is not None else base["sim_time_s"]
+    steps = max(1, round(float(sim_time_s) / float(base["dt_s"])))
+    size = min(BATCH_STEPS // steps, len(todo) // (BATCHES_PER_WORKER * max(workers, 1)))
+    size = max(size, 1)
+    return [list(todo[k : k + size]) for k in range(0, len(todo), size)]
