@@ -96,15 +96,17 @@ class RosSession:
         topic = c.topic(name)
         return self.probe.create_publisher(c.message_class(topic.type_name), name, c.qos(topic))
 
-    def subscribe(self, name: str, *, history: bool = False) -> list:
+    def subscribe(self, name: str, *, history: bool = False, keep=None) -> list:
         """Subscribe the probe to a contract topic; returns the list the messages go to.
-        ``history``: transient-local, so samples published before matching arrive too."""
+        ``history``: transient-local, so samples published before matching arrive too;
+        ``keep``: only the messages for which it is true (e.g. not the run identities
+        that share ``/diagnostics``)."""
         topic = c.topic(name)
         received: list = []
         self.probe.create_subscription(
             c.message_class(topic.type_name),
             name,
-            received.append,
+            received.append if keep is None else lambda m: keep(m) and received.append(m),
             c.qos(topic, subscriber=not history),
         )
         return received

@@ -35,7 +35,9 @@ class PlannerProbe:
         self.mrp = ros.subscribe(c.TARGET_MRP)
         self.rate = ros.subscribe(c.TARGET_RATE)
         self.margin = ros.subscribe(c.KEEP_OUT_MARGIN)
-        self.diag = ros.subscribe(c.DIAGNOSTICS)
+        # The planner's per-step diagnostics, not its run identity (same topic).
+        planner = lambda m: m.status[0].hardware_id == diagnostics.HARDWARE_ID
+        self.diag = ros.subscribe(c.DIAGNOSTICS, keep=planner)
         self.status = ros.subscribe(c.PLANNER_STATUS, history=True)
         ros.wait_connected(self.node, [self.pub, self.pub_rate])
 

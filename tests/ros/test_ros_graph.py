@@ -155,8 +155,12 @@ def test_bag_reads_back_with_an_independent_reader(paper_case):
         quats = []
         state_stamps: set[tuple[int, int]] = set()
         torque_stamps: set[tuple[int, int]] = set()
+        target_stamps: set[tuple[int, int]] = set()
         for conn, _, raw in reader.messages():
             seen[conn.topic] += 1
+            if conn.topic == "/planner/target_mrp":
+                msg = reader.deserialize(raw, conn.msgtype)
+                target_stamps.add((msg.header.stamp.sec, msg.header.stamp.nanosec))
             if conn.topic == "/spacecraft/attitude":
                 msg = reader.deserialize(raw, conn.msgtype)
                 q = msg.quaternion
@@ -171,6 +175,9 @@ def test_bag_reads_back_with_an_independent_reader(paper_case):
     # the states are counted by stamp, not by message.
     assert len(state_stamps) > 900
     assert len(state_stamps - torque_stamps) <= 1 and torque_stamps <= state_stamps
+    # From the first step on: the loop starts once every reader of the nodes' outputs
+    # (the recorder's too) has matched, so no target of an early step is missing.
+    assert len(state_stamps - target_stamps) <= 1 and target_stamps <= state_stamps
     np.testing.assert_array_equal(np.array(quats), [(q.x, q.y, q.z, q.w) for q in mine])
 
 

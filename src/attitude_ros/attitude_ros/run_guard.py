@@ -112,6 +112,9 @@ class RunGuard:
         self._subscriptions: dict[str, Any] = {}  # input -> the node's subscription (watch)
         self._unknown_since: dict[str, float] = {}
         self.peers: dict[str, str] = {}  # role -> fingerprint, same namespace
+        self.peers_matched: dict[str, bool] = {}  # role -> its outputs all matched
+        self.matched = False  # as last published
+        self._agreed_since: float | None = None
         self.fatal = False
         self.pub = node.create_publisher(DiagnosticArray, c.DIAGNOSTICS, identity_qos())
         # Peers' identities: transient-local, so a late joiner gets each peer's last one at
@@ -129,6 +132,8 @@ class RunGuard:
         node.create_timer(AUDIT_PERIOD_S, self.audit)
         node.create_timer(IDENTITY_PERIOD_S, self.publish_identity)
         self.publish_identity()
+        # Checked every 20 ms until the outputs are matched (a cheap test while inactive).
+        self._match_timer: Any = node.create_timer(0.02, self._check_matched) if stops else None
 
     # -- foreign publishers --------------------------------------------------------
 
@@ -221,7 +226,36 @@ class RunGuard:
 
     # -- identity and peers --------------------------------------------------------
 
+    # -- outputs matched before the first step --------------------------------------
+
+    def _outputs(self) -> list[Any]:
+        """The node's publishers of per-step contract topics (not the latched status nor
+        ``/diagnostics``, whose identity readers are of another durability)."""
+        per_step = {
+            name
+            for name in self.spec.publishes
+            if name != c.DIAGNOSTICS and not c.topic(name).latched
+        }
+        return [pub for pub in self.node.publishers if pub.topic_name in per_step]
+
+    def outputs_matched(self) -> bool:
+        """Whether the node is active and each of its per-step outputs has matched at
+        least the readers the graph shows of it (each is sure to get the first sample)."""
+        if not getattr(self.node, "active", True):
+            return False
+        return all(
+            pub.get_subscription_count() >= self.node.count_subscribers(pub.topic_name)
+            for pub in self._outputs()
+        )
+
+    def _check_matched(self) -> None:
+        """Say it as soon as the outputs are matched (then every IDENTITY_PERIOD_S)."""
+        if self.outputs_matched():
+            self.publish_identity()
+            self._match_timer.cancel()
+
     def publish_identity(self) -> None:
+        self.matched = self.outputs_matched()
         values = {
             ri.ROLE: self.spec.role,
             ri.RUN_NAMESPACE: self.namespace,
@@ -231,6 +265,7 @@ class RunGuard:
             ri.REJECTED_MESSAGES: str(
                 int(getattr(self.node, "rejected", 0)) + self.refused_foreign
             ),
+            ri.OUTPUTS_MATCHED: "1" if self.matched else "0",
         }
         status = DiagnosticStatus(
             level=DiagnosticStatus.ERROR if self.foreign else DiagnosticStatus.OK,
@@ -254,6 +289,7 @@ class RunGuard:
             if role == self.spec.role or not fingerprint or not self.fingerprint:
                 continue  # itself, or a node without a scenario (the recorder)
             self.peers[role] = fingerprint
+            self.peers_matched[role] = values.get(ri.OUTPUTS_MATCHED, "1") == "1"
             if fingerprint != self.fingerprint:
                 self._fatal(
                     ri.EXIT_FINGERPRINT_MISMATCH,
@@ -264,17 +300,34 @@ class RunGuard:
 
     def peers_agree(self) -> bool:
         """True once every loop node of this namespace in the graph has been heard with
-        this node's fingerprint (the simulator's start-up gate)."""
+        this node's fingerprint, and with its outputs and this node's matched (the
+        simulator's start-up gate; for at most :data:`~ri.MATCH_GRACE_S` the matching
+        is waited for, then the run starts with a warning naming who is unmatched)."""
         present = {
             name
             for name, namespace in self.node.get_node_names_and_namespaces()
             if namespace == self.namespace
         }
+        unmatched = [] if self.outputs_matched() else [self.spec.role]
         for spec in node_graph.LOOP:
             if spec is self.spec or spec.node_name not in present:
                 continue
             if self.peers.get(spec.role) != self.fingerprint:
+                self._agreed_since = None
                 return False
+            if not self.peers_matched.get(spec.role, True):
+                unmatched.append(spec.role)
+        if not unmatched:
+            return True
+        now = time.monotonic()
+        self._agreed_since = self._agreed_since or now
+        if now - self._agreed_since < ri.MATCH_GRACE_S:
+            return False
+        self.log.warning(
+            f"starting with outputs of {', '.join(unmatched)} not matched by every reader "
+            f"after {ri.MATCH_GRACE_S:g} s (a reader of incompatible QoS?)",
+            throttle_duration_sec=5.0,
+        )
         return True
 
     def _fatal(self, code: int, text: str) -> None:

@@ -55,6 +55,8 @@ __all__ = [
     "FOREIGN_PUBLISHERS",
     "FOREIGN_NAMES",
     "REJECTED_MESSAGES",
+    "OUTPUTS_MATCHED",
+    "MATCH_GRACE_S",
     "Endpoint",
     "run_namespace",
     "in_run",
@@ -78,6 +80,10 @@ FINGERPRINT = "scenario_fingerprint"
 FOREIGN_PUBLISHERS = "foreign_publishers"  # foreign writers seen on its inputs so far
 FOREIGN_NAMES = "foreign_publisher_names"  # "topic <- /ns/node", "; "-separated
 REJECTED_MESSAGES = "rejected_messages"  # refused input messages so far
+OUTPUTS_MATCHED = "outputs_matched"  # "1": every reader the graph shows of its outputs matched
+MATCH_GRACE_S = 2.0
+"""The simulator's first step waits at most this long, the rest of the graph ready, for
+a peer whose outputs are not all matched (a reader of incompatible QoS never is)."""
 
 
 class Endpoint(NamedTuple):
