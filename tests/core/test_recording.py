@@ -27,6 +27,9 @@ def test_records_until_the_status_plus_the_delay_then_closes_when_every_seen_top
     assert rule.on_status(PlannerStatus.ARRIVED, 4 * S)
     assert rule.stop_at_ns == 5 * S and rule.reason == "planner status arrived"
     assert rule.status_stopped  # the recorder parses no later status
+    late = StopRule(ENDING, stop_delay_s=100.0, started=0.0, scenario_time_s=10.0)
+    late.on_stamped(ATTITUDE, 0, 0.0)  # the scenario's end, 10 s, comes first
+    assert not late.on_status(PlannerStatus.ARRIVED, 4 * S) and late.status_stopped
     assert not rule.on_status(PlannerStatus.ARRIVED, 4 * S + 1)  # a later one cannot move it
     assert rule.stop_at_ns == 5 * S
     assert feed(rule, topics, 5 * S, 0.6) == [True] * 3  # the stop stamp itself is recorded

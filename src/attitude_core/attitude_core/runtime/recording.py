@@ -104,7 +104,8 @@ class StopRule:
         self.first_state_ns: int | None = None
         self.stop_at_ns: int | None = None
         self.status_stopped = False
-        """A planner status set the stop: a later one (a later stamp) cannot move it."""
+        """A planner status that ends the recording was taken into account: a later one
+        (of a later stamp) cannot move the stop earlier."""
         self.reason: str | None = None
         self.seen: set[str] = set()
         self.passed: set[str] = set()
@@ -128,9 +129,8 @@ class StopRule:
         """The planner's status at a stamp; True if it set the stop point."""
         if status not in self.stop_on:
             return False
-        stopped = self._stop_at(stamp_ns + self.stop_delay_ns, f"planner status {status.value}")
-        self.status_stopped = self.status_stopped or stopped
-        return stopped
+        self.status_stopped = True  # taken into account: a later one would stop later
+        return self._stop_at(stamp_ns + self.stop_delay_ns, f"planner status {status.value}")
 
     def poll(self, now: float) -> Outcome:
         """The outcome so far (call after each message and periodically)."""
