@@ -2,7 +2,7 @@
 and ours, side by side in one run, per run and per step, and a campaign run of ours
 end to end.
 
-Run: .venv/bin/python bench/peer_bench.py [--runs N] [--repeats N]
+Run: .venv/bin/python bench/peer_bench.py [--runs N] [--repeats N] [--grids 8,12]
 
 Basilisk (``bsk``, pinned in ``bench/requirements-bsk.txt``) lives in an environment of
 its own, ``.bench-venv/bsk/``, made here with ``python3.11 -m venv`` on the first run and
@@ -11,7 +11,8 @@ in the project's lock. ``bench/peer_bsk_case1.py`` runs there in a subprocess: t
 spacecraft, simple navigation, Basilisk's constrained attitude maneuver planner (CAM,
 A* on an MRP grid with the three Case 1 cones), attitude tracking error, MRP feedback
 with our gains; per run the build, the CAM's plan and the 1500-step stepping, timed in
-one process after a warm-up.
+one process after a warm-up; once per CAM grid fineness of ``--grids`` (8, its example's
+value, and 12, the fineness of the issue's reference figure of 65-69 ms).
 
 Ours, in this process: the offline Case 1 closed loop (``run_closed_loop``) per run
 after a warm-up (the guidance's set-up, its global route included, timed alone too so
@@ -89,10 +90,19 @@ def ensure_bsk_env(python: str) -> tuple[Path, str]:
     return exe, f"made in {time.perf_counter() - t0:.0f} s"
 
 
-def basilisk_case1(exe: Path, repeats: int, trajectory: Path) -> dict:
-    """``peer_bsk_case1.py``'s JSON line."""
+def basilisk_case1(exe: Path, repeats: int, trajectory: Path, grid: int) -> dict:
+    """``peer_bsk_case1.py``'s JSON line, the CAM on a grid of fineness ``grid``."""
     done = subprocess.run(
-        [exe, BSK_SCRIPT, "--repeats", str(repeats), "--trajectory", trajectory],
+        [
+            exe,
+            BSK_SCRIPT,
+            "--repeats",
+            str(repeats),
+            "--trajectory",
+            trajectory,
+            "--grid",
+            str(grid),
+        ],
         capture_output=True,
         text=True,
     )
@@ -165,61 +175,79 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=200, help="campaign size (random slews)")
     parser.add_argument("--repeats", type=int, default=5, help="timed Case 1 runs on each side")
     parser.add_argument("--python", default="python3.11", help="makes the Basilisk environment")
+    parser.add_argument(
+        "--grids",
+        default="8,12",
+        help="the CAM's grid fineness N, each a Basilisk run (8: its example; 12: the issue's)",
+    )
     args = parser.parse_args()
+    grids = [int(n) for n in args.grids.split(",")]
     scenario = load_scenario(ROOT / "scenarios" / "case1.yaml")
     steps = scenario.n_steps
     print(f"peer benchmark: Case 1 ({steps} steps, {scenario.sim_time_s:.0f} s simulated)")
     print(f"  {os.cpu_count()} cpu(s); Case 1 runs: warm process, warm-up + {args.repeats} timed")
 
     exe, how = ensure_bsk_env(args.python)
+    peers = []  # (Basilisk's figures, margins, arrival) per grid
     with tempfile.TemporaryDirectory() as tmp:
-        trajectory = Path(tmp) / "bsk_case1.npz"
-        bsk = basilisk_case1(exe, args.repeats, trajectory)
-        flown = np.load(trajectory)
-        bsk_margins, bsk_arrival = judged(scenario, flown["t"], flown["sigma_bn"], flown["omega_b"])
+        for grid in grids:
+            trajectory = Path(tmp) / f"bsk_case1_{grid}.npz"
+            found = basilisk_case1(exe, args.repeats, trajectory, grid)
+            flown = np.load(trajectory)
+            peers.append(
+                (found, *judged(scenario, flown["t"], flown["sigma_bn"], flown["omega_b"]))
+            )
     ours = ours_case1(scenario, args.repeats)
     camp = ours_campaign(args.runs)
 
-    fl = bsk["flight"]
-    print(
-        f"  Basilisk {bsk['basilisk']} ({BSK_ENV.relative_to(ROOT)}, {how}): CAM grid N = "
-        f"{bsk['grid_n']}, distance A*, B-spline at {bsk['avg_omega_rad_s']} rad/s mean"
-    )
     print(
         "the problem flown: the same plant, gains, cones, start and goal; the planners differ "
         "(margins at the samples, deg, objects 1 / 2 / 3; aim > 0)"
     )
-    print(
-        f"  Basilisk: margins {_margins(bsk_margins)}, arrival "
-        f"{bsk_arrival if bsk_arrival is not None else 'none'} s, rotation "
-        f"{fl['rotation_deg']:.0f} deg ({fl['plan_waypoints']} CAM waypoints; its own check: "
-        f"min margin {fl['min_margin_deg']:.2f} deg, outside the cones: {fl['outside_cones']})"
-    )
+    for bsk, bsk_margins, bsk_arrival in peers:
+        fl = bsk["flight"]
+        print(
+            f"  Basilisk {bsk['basilisk']} ({BSK_ENV.relative_to(ROOT)}, {how}): CAM grid N = "
+            f"{bsk['grid_n']}, distance A*, B-spline at {bsk['avg_omega_rad_s']} rad/s mean: "
+            f"margins {_margins(bsk_margins)}, arrival "
+            f"{bsk_arrival if bsk_arrival is not None else 'none'} s, rotation "
+            f"{fl['rotation_deg']:.0f} deg ({fl['plan_waypoints']} CAM waypoints; its own "
+            f"check: min margin {fl['min_margin_deg']:.2f} deg, outside the cones: "
+            f"{fl['outside_cones']})"
+        )
     print(
         f"  ours:     margins {_margins(ours['margins'])}, arrival {ours['arrival_s']} s, "
         f"rotation {ours['rotation_deg']:.0f} deg (FEPF, improved variant; dense margin "
         f"{ours['dense_margin_deg']:.2f} deg)"
     )
 
-    bsk_run, bsk_step = 1e3 * bsk["run_s"], bsk["step_us"]
     our_run = 1e3 * ours["run_s"]
     our_setup = 1e3 * ours["setup_s"]
     our_step = 1e3 * (our_run - our_setup) / steps
     camp_run = 1e3 * camp["run_s"]
     camp_step = 1e6 * camp["loop_s"] / steps
     print(f"{'':44s}{'per run, ms':>14s}{'per step, us':>14s}")
-    rows = (
-        ("Basilisk Case 1 (build + plan + steps)", bsk_run, bsk_step),
+    rows = [
+        (
+            f"Basilisk Case 1, N = {b['grid_n']} (build + plan + steps)",
+            1e3 * b["run_s"],
+            b["step_us"],
+        )
+        for b, _, _ in peers
+    ]
+    rows += [
         ("ours, offline Case 1 (warm process)", our_run, our_step),
         (f"ours, campaign run (1 worker, {camp['runs']} slews)", camp_run, camp_step),
-    )
+    ]
     for name, run_ms, step_us in rows:
         print(f"  {name:42s}{run_ms:14.1f}{step_us:14.1f}")
-    print(
-        f"  Basilisk: run min {1e3 * bsk['run_s_min']:.1f} ms; build {1e3 * bsk['build_s']:.1f}"
-        f" ms, CAM plan (init) {1e3 * bsk['plan_s']:.1f} ms, steps {1e3 * bsk['loop_s']:.1f} ms"
-        f" (per step: the steps / {steps}; min {bsk['step_us_min']:.1f} us)"
-    )
+    for bsk, _, _ in peers:
+        print(
+            f"  Basilisk N = {bsk['grid_n']}: run min {1e3 * bsk['run_s_min']:.1f} ms; build "
+            f"{1e3 * bsk['build_s']:.1f} ms, CAM plan (init) {1e3 * bsk['plan_s']:.1f} ms, "
+            f"steps {1e3 * bsk['loop_s']:.1f} ms (per step: the steps / {steps}; min "
+            f"{bsk['step_us_min']:.1f} us)"
+        )
     print(
         f"  ours: run min {1e3 * ours['run_s_min']:.1f} ms; guidance set-up (route, timed "
         f"alone) {our_setup:.1f} ms (per step: (run - set-up) / {steps})"
@@ -230,16 +258,22 @@ def main() -> None:
         f"{camp_run - 1e3 * (camp['loop_s'] + camp['metrics_s']):.1f} ms (per step: its closed "
         f"loop / {steps}, set-up included)"
     )
-    print("ratios ours / Basilisk")
-    print(f"  offline Case 1: per run {our_run / bsk_run:.2f}, per step {our_step / bsk_step:.2f}")
-    print(f"  campaign run: per run {camp_run / bsk_run:.2f}, per step {camp_step / bsk_step:.2f}")
-    ratio = camp_run / bsk_run
-    verdict = "met" if ratio <= AIM_CAMPAIGN_OVER_BSK else "not met"
-    print(
-        f"aim: a campaign run (1 worker, {camp['runs']} slews) at most "
-        f"{AIM_CAMPAIGN_OVER_BSK} of Basilisk's Case 1 run: {ratio:.2f} ({verdict}; "
-        f"{camp_run:.1f} ms against {AIM_CAMPAIGN_OVER_BSK * bsk_run:.1f} ms)"
-    )
+    for bsk, _, _ in peers:
+        bsk_run, bsk_step = 1e3 * bsk["run_s"], bsk["step_us"]
+        print(f"ratios ours / Basilisk N = {bsk['grid_n']}")
+        print(
+            f"  offline Case 1: per run {our_run / bsk_run:.2f}, per step {our_step / bsk_step:.2f}"
+        )
+        print(
+            f"  campaign run: per run {camp_run / bsk_run:.2f}, per step {camp_step / bsk_step:.2f}"
+        )
+        ratio = camp_run / bsk_run
+        verdict = "met" if ratio <= AIM_CAMPAIGN_OVER_BSK else "not met"
+        print(
+            f"  aim: a campaign run (1 worker, {camp['runs']} slews) at most "
+            f"{AIM_CAMPAIGN_OVER_BSK} of Basilisk's Case 1 run: {ratio:.2f} ({verdict}; "
+            f"{camp_run:.1f} ms against {AIM_CAMPAIGN_OVER_BSK * bsk_run:.1f} ms)"
+        )
 
 
 if __name__ == "__main__":
