@@ -1,9 +1,11 @@
 """The shortcuts a campaign run takes give what the long way gave: a draw is loaded from
 the values its reproducer file holds, without writing and reading that file; short runs
-share a Dask task, with the rows of one run per task."""
+share a Dask task, with the rows of one run per task; LocalCluster workers keep glibc's
+malloc defaults."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +17,7 @@ import yaml
 
 from attitude_core.config.scenario import flatten_parameters, loads_scenario
 from attitude_core.yamlio import load_strict
+from attitude_tools.campaign import cli
 from attitude_tools.campaign.cli import run_campaign
 from attitude_tools.campaign.draw import as_read_back, base_parameters, draw_run, scenario_text
 from attitude_tools.campaign.spec import load_spec
@@ -100,3 +103,16 @@ def test_a_campaign_of_batched_runs_gives_the_rows_of_single_ones(tmp_path):
     rows = [run_task(spec, i, v) for i, v in spec.tasks]
     expected = pd.DataFrame(rows).sort_values(["run", "variant"]).reset_index(drop=True)
     pd.testing.assert_frame_equal(got, expected.drop(columns=list(TIMING_COLUMNS)))
+
+
+@pytest.mark.slow
+def test_local_cluster_workers_keep_the_malloc_defaults(monkeypatch):
+    """Not Dask's MALLOC_TRIM_THRESHOLD_ (it makes NumPy's temporaries page-fault anew)."""
+    monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_", raising=False)
+    client, _ = cli._connect(1, None)
+    try:
+        env = client.submit(lambda: dict(os.environ), pure=False).result()
+    finally:
+        cli._close(client)
+    assert "MALLOC_TRIM_THRESHOLD_" not in env
+    assert env["OMP_NUM_THREADS"] == "1"  # the rest of Dask's worker environment
