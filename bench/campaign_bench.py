@@ -21,7 +21,6 @@ import tempfile
 import time
 from pathlib import Path
 
-import pyarrow.parquet as pq
 import yaml
 
 from attitude_tools.campaign.cli import run_campaign
@@ -54,6 +53,10 @@ def spec_file(tmp: Path, runs: int) -> Path:
 
 
 def main() -> None:
+    # Here, not at the top: a worker process imports this module again (multiprocessing's
+    # spawn), and attitude-campaign's workers do not import pyarrow.
+    import pyarrow.parquet as pq
+
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--runs", type=int, default=200)
     args = parser.parse_args()
