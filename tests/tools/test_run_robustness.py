@@ -12,7 +12,6 @@ import os
 import shutil
 import signal
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -360,21 +359,22 @@ def test_good_param_passes_the_check(param, tmp_path, monkeypatch):
 @needs_workspace
 def test_node_refusing_its_input_mid_run_makes_attitude_run_exit_2(tmp_path, ros_domain):
     """A node that exits 2 (bad input it found) makes attitude-run exit 2 with that
-    node's error line. The simulator is replaced by a stand-in that refuses at once."""
-    real = shutil.which("ros2", path=str(Path(sys.prefix) / "bin"))
-    assert real is not None
-    fake_bin = tmp_path / "bin"
-    fake_bin.mkdir()
+    node's error line. The simulator is replaced by a stand-in that refuses at once: an
+    install prefix first on ``AMENT_PREFIX_PATH`` whose ament index lists
+    ``spacecraft_sim``, the executable ``ros2 run`` (and attitude-run) would take."""
+    from attitude_tools.run.environment import ros_environment
+
     line = "[rigid_body_sim] error: parameter: lockstep.max_held_steps: refused by the test"
-    fake = fake_bin / "ros2"
-    fake.write_text(
-        "#!/bin/bash\n"
-        f'if [ "$3" = rigid_body_sim ]; then echo "{line}" >&2; exit 2; fi\n'
-        f'exec {real} "$@"\n'
-    )
+    prefix = tmp_path / "stand_in"
+    index = prefix / "share" / "ament_index" / "resource_index" / "packages"
+    index.mkdir(parents=True)
+    (index / "spacecraft_sim").write_text("")
+    fake = prefix / "lib" / "spacecraft_sim" / "rigid_body_sim"
+    fake.parent.mkdir(parents=True)
+    fake.write_text(f'#!/bin/bash\necho "{line}" >&2\nexit 2\n')
     fake.chmod(0o755)
-    env = run_env(ros_domain)
-    env["PATH"] = f"{fake_bin}{os.pathsep}{env['PATH']}"
+    env = {**ros_environment(), **run_env(ros_domain)}  # the workspace on the index
+    env["AMENT_PREFIX_PATH"] = f"{prefix}{os.pathsep}{env['AMENT_PREFIX_PATH']}"
     out = tmp_path / "out"
     result = subprocess.run(
         [ATTITUDE_RUN, str(CASE1), "--out", str(out), "--quiet"],
