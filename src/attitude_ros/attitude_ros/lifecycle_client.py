@@ -59,21 +59,23 @@ class LifecycleClient:
     ) -> Any:
         future = client.call_async(request)
         if gone is None:
-            if self.executor is not None:
-                self.executor.spin_until_future_complete(future, timeout_sec=timeout_s)
-            else:
-                rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout_s)
+            self._spin(future, timeout_s)
         else:  # waited for in short slices: a node whose process has ended answers never
             deadline = time.monotonic() + timeout_s
             while not future.done() and time.monotonic() < deadline and not gone():
-                if self.executor is not None:
-                    self.executor.spin_until_future_complete(future, timeout_sec=GONE_POLL_S)
-                else:
-                    rclpy.spin_until_future_complete(self.node, future, timeout_sec=GONE_POLL_S)
+                self._spin(future, GONE_POLL_S)
         if not future.done():
             client.remove_pending_request(future)
             return None
         return future.result()
+
+    def _spin(self, future: Any, timeout_s: float) -> None:
+        """Spin the node (on ``executor`` when given) until ``future`` is done or
+        ``timeout_s`` has passed."""
+        if self.executor is not None:
+            self.executor.spin_until_future_complete(future, timeout_sec=timeout_s)
+        else:
+            rclpy.spin_until_future_complete(self.node, future, timeout_sec=timeout_s)
 
     def state(self, timeout_s: float, gone: Callable[[], bool] | None = None) -> str | None:
         """The node's current state label; None when it does not answer in time (or
