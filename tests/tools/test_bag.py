@@ -11,6 +11,7 @@ import struct
 import subprocess
 import sys
 import textwrap
+from pathlib import Path
 
 import pytest
 import yaml
@@ -33,6 +34,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, String
 
+from attitude_core.yamlio import load_safe
 from attitude_tools.bag import (
     BagWriter,
     bag_info,
@@ -183,6 +185,16 @@ def test_metadata_yaml_matches_rosbag2_jazzy(recorded):
         # the real RIHS01 hash, as rosidl and rosbags compute it
         assert meta["type_description_hash"] == STORE.hash_rihs01(TOPICS[name])
     assert sorted(os.listdir(bag_dir)) == ["metadata.yaml", "run_0.mcap"]
+
+
+def test_metadata_read_with_libyaml_is_what_the_pure_python_loader_reads(recorded):
+    bag_dir, _, _ = recorded
+    text = (Path(bag_dir) / "metadata.yaml").read_text()
+    pure = yaml.load(text, Loader=yaml.SafeLoader)["rosbag2_bagfile_information"]
+    assert bag_info(bag_dir) == pure
+    assert load_safe(text) == {"rosbag2_bagfile_information": pure}
+    with pytest.raises(yaml.YAMLError):
+        load_safe("topics: [a, b\n")
 
 
 def test_qos_same_in_channel_and_metadata(recorded):

@@ -15,10 +15,15 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 
-__all__ = ["LifecycleClient", "GONE_POLL_S"]
+__all__ = ["LifecycleClient", "GONE_POLL_S", "STATE_RETRY_S"]
 
 GONE_POLL_S = 0.02
 """How often a wait that may end with the node's process asks whether it has, s."""
+STATE_RETRY_S = 0.1
+"""How long a ``get_state`` request waits for its answer before it is asked again, s.
+The first answer of a service the client has not called before can be lost (the
+server's response writer still matching the client's reader: the request side being
+ready says nothing of it); ``get_state`` changes nothing, so asking again is safe."""
 
 
 def _on_transition(event: Any, name: str, on_event: Callable[[str, str, str], None]) -> None:
@@ -79,9 +84,14 @@ class LifecycleClient:
 
     def state(self, timeout_s: float, gone: Callable[[], bool] | None = None) -> str | None:
         """The node's current state label; None when it does not answer in time (or
-        ``gone()`` turns true meanwhile: its process has ended)."""
-        response = self._call(self.get, GetState.Request(), timeout_s, gone)
-        return None if response is None else str(response.current_state.label)
+        ``gone()`` turns true meanwhile: its process has ended). Asked again every
+        :data:`STATE_RETRY_S` until then."""
+        deadline = time.monotonic() + timeout_s
+        while (remaining := deadline - time.monotonic()) > 0 and not (gone and gone()):
+            response = self._call(self.get, GetState.Request(), min(STATE_RETRY_S, remaining), gone)
+            if response is not None:
+                return str(response.current_state.label)
+        return None
 
     def transition(
         self, label: str, timeout_s: float, gone: Callable[[], bool] | None = None

@@ -14,12 +14,12 @@ import os
 from collections.abc import Iterator
 from typing import Any, NamedTuple, cast
 
-import yaml
 from mcap.reader import make_reader
 from mcap.records import Attachment, Channel, Chunk, Message, Schema
 from mcap.stream_reader import StreamReader, breakup_chunk
 from mcap_ros2.decoder import DecoderFactory
 
+from attitude_core.yamlio import load_safe
 from attitude_tools.bag.layout import MCAP_MAGIC, METADATA_FILE
 
 __all__ = [
@@ -47,7 +47,7 @@ def bag_info(bag_dir: str) -> dict[str, Any]:
     """The ``rosbag2_bagfile_information`` mapping of a bag's metadata.yaml."""
     path = os.path.join(os.fspath(bag_dir), METADATA_FILE)
     with open(path, encoding="utf-8") as f:
-        doc = yaml.safe_load(f)
+        doc = load_safe(f)
     if not isinstance(doc, dict) or "rosbag2_bagfile_information" not in doc:
         raise ValueError(f"{path} has no rosbag2_bagfile_information")
     return cast(dict[str, Any], doc["rosbag2_bagfile_information"])

@@ -66,6 +66,7 @@ from mcap.stream_reader import breakup_chunk
 from mcap_ros2.decoder import DecoderFactory
 
 from attitude_core.runtime.recording import EXIT_DISK_FULL
+from attitude_core.yamlio import load_safe
 from attitude_tools.bag.layout import MCAP_MAGIC, METADATA_FILE, RESERVE_FILE
 from attitude_tools.bag.reader import BagMessage, bag_info, is_finished, mcap_files, stream_records
 from attitude_tools.bag.writer import (
@@ -402,7 +403,7 @@ def recover_bag(bag_dir: str) -> Recovery:
             ).get("serialized_metadata")
         if serialized is None:
             raise NotABagError(f"{path} is finished but holds no rosbag2 metadata")
-        write_metadata_yaml(bag_dir, yaml.safe_load(serialized))
+        write_metadata_yaml(bag_dir, load_safe(serialized))
         return Recovery(bag_dir, True, count, start, end, counts)
     scan, dropped, info = _finish_file(path, bag_dir)
     write_metadata_yaml(bag_dir, info)

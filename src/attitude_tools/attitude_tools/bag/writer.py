@@ -34,6 +34,7 @@ from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Schema
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
 
+from attitude_core.yamlio import load_safe
 from attitude_tools.bag import msgdefs
 from attitude_tools.bag.layout import METADATA_FILE, RESERVE_FILE
 
@@ -129,7 +130,7 @@ def parse_qos(text: str) -> list[QosProfile]:
     if not text.strip():
         return []
     try:
-        profiles = yaml.safe_load(text)
+        profiles = load_safe(text)
     except yaml.YAMLError as err:
         raise ValueError(f"offered_qos_profiles is not valid YAML: {err}") from None
     if profiles is None:
