@@ -5,7 +5,12 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from attitude_core.gnc.constraints import ConeGeometry, KeepInCones
+from attitude_core.gnc.constraints import (
+    ConeGeometry,
+    KeepInCones,
+    _fiber_circles,
+    _unit_perpendicular,
+)
 
 PAPER = dict(
     boresights_body=[[1.0, 0.0, 0.0]],
@@ -54,14 +59,15 @@ def test_margin_sign_is_eq5():
 @pytest.mark.parametrize("spec", [PAPER, TWO_INSTRUMENTS])
 def test_rim_circles_lie_on_the_region_boundary(spec):
     g = ConeGeometry(**spec, inflation_deg=2.0, samples=64)
+    centres, normals, radii = g.rim_circles
     rng = np.random.default_rng(2)
-    idx = rng.integers(0, len(g._radii), 400)
+    idx = rng.integers(0, len(radii), 400)
     t = rng.uniform(0, 2 * np.pi, 400)
-    n = g._normals[idx]
+    n = normals[idx]
     u = np.cross(n, [0.3, 0.5, 0.7])
     u /= np.linalg.norm(u, axis=1, keepdims=True)
     v = np.cross(n, u)
-    pts = g._centres[idx] + g._radii[idx, None] * (np.cos(t)[:, None] * u + np.sin(t)[:, None] * v)
+    pts = centres[idx] + radii[idx, None] * (np.cos(t)[:, None] * u + np.sin(t)[:, None] * v)
     # Every point of a rim circle has inflated margin 0 for its own pair, >= 0 overall is
     # not required (other regions may cover it), so check the owning pair.
     pair = idx // g.samples
@@ -277,3 +283,62 @@ def test_dense_margin_of_a_one_sample_run_is_that_samples_margin():
     )
     assert t_min == 0.0
     assert margin == pytest.approx(float(geometry.min_margin_deg(sc.initial_mrp[None, :])[0]))
+
+
+def _rim_circles_one_call_per_rim(g: ConeGeometry):
+    """The rim circles with one ``_fiber_circles`` call per constraint (the plain form)."""
+    k = g.samples
+    phi = 2.0 * np.pi * np.arange(k) / k
+    cones = [
+        (g.boresights_body[i], g.directions_inertial[j], np.radians(beta + g.inflation_deg))
+        for i, j, beta in zip(g.pair_instrument, g.pair_object, g.pair_angles_deg, strict=True)
+    ] + [
+        (a, d, np.radians(max(gamma - g.inflation_deg, 1e-3)))
+        for a, d, gamma in zip(
+            g.keep_in_axes_body,
+            g.keep_in_directions_inertial,
+            g.keep_in_max_angles_deg,
+            strict=True,
+        )
+    ]
+    out = []
+    for s, c, beta in cones:
+        e1 = _unit_perpendicular(c)
+        e2 = np.cross(c, e1)
+        b = g._rim(c, e1, e2, beta, phi)
+        if np.max(b @ s) > 1.0 - 1e-9:
+            b = g._rim(c, e1, e2, beta, phi + np.pi / k)
+        out.append(_fiber_circles(s, b))
+    return tuple(np.concatenate(x) for x in zip(*out, strict=True))
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_rim_circles_built_per_boresight_are_those_built_per_rim_to_the_bit(seed):
+    rng = np.random.default_rng(seed)
+    for trial in range(60):
+        ni, nj = int(rng.integers(1, 4)), int(rng.integers(1, 7))
+        s, c = rng.normal(size=(ni, 3)), rng.normal(size=(nj, 3))
+        if trial % 7 == 0:  # an object on (or against) a boresight: the half-step rim
+            c[0] = s[0] / np.linalg.norm(s[0]) * (1 if trial % 2 else -1)
+        pairs = rng.uniform(5.0, 40.0, (ni, nj)) if trial % 3 == 0 else None
+        if pairs is not None:
+            pairs[0, 0] = np.nan  # a pair that is no constraint
+        keep_in = None
+        if trial % 5 == 0:
+            keep_in = KeepInCones(rng.normal(size=(2, 3)), rng.normal(size=(2, 3)), [40.0, 70.0])
+        g = ConeGeometry(
+            s, rng.uniform(5.0, 40.0, ni), c, 2.0, int(rng.choice([16, 36, 180])), keep_in, pairs
+        )
+        if g.n_constraints == 0:
+            continue
+        for got, plain in zip(g.rim_circles, _rim_circles_one_call_per_rim(g), strict=True):
+            np.testing.assert_array_equal(got, plain)
+
+
+def test_a_geometry_used_for_its_exact_margins_only_builds_no_rim_circles():
+    g = ConeGeometry(**TWO_INSTRUMENTS, inflation_deg=2.0, samples=180)
+    g.min_margin_deg_single((0.1, -0.2, 0.3))
+    g.arc_min_margin_deg_single((0.1, -0.2, 0.3), (0.0, 0.1, 0.2))
+    assert not g._rims_built
+    query = g.closest_obstacle((0.1, -0.2, 0.3))  # the first rim query builds them
+    assert g._rims_built and np.isfinite(query.distance)

@@ -286,12 +286,15 @@ class ConeGeometry:
                 strict=True,
             )
         )
-        self._build_rim_circles()
-        self._kernel = self._make_kernel()
+        # The rim circles (and the kernel's rim search) are built at the first query that
+        # needs them: a geometry used for its exact margins only never builds them.
+        self._rims_built = False
+        self._kernel = self._make_kernel(rims=False)
 
-    def _make_kernel(self) -> Any:
+    def _make_kernel(self, rims: bool) -> Any:
         """The compiled form of the exact margins and the rim search (None: the Python
-        reference runs), fed this geometry's constraints and rim circles as rows."""
+        reference runs), fed this geometry's constraints and, with ``rims``, its rim
+        circles as rows (without, the kernel has the exact margins only)."""
         if kernels.compiled is None:
             return None
         keep_out = np.column_stack(
@@ -304,16 +307,20 @@ class ConeGeometry:
         keep_in = np.column_stack(
             [self.keep_in_axes_body, self.keep_in_directions_inertial, self.keep_in_max_angles_deg]
         ).reshape(-1, 7)
-        circles = np.column_stack(
-            [
-                self._centres,
-                self._normals,
-                self._c_dot_c,
-                self._c_dot_n,
-                self._r2,
-                self._two_radii,
-            ]
-        ).reshape(-1, 10)
+        circles = (
+            np.column_stack(
+                [
+                    self._centres,
+                    self._normals,
+                    self._c_dot_c,
+                    self._c_dot_n,
+                    self._r2,
+                    self._two_radii,
+                ]
+            ).reshape(-1, 10)
+            if rims
+            else np.zeros((0, 10))
+        )
         return kernels.compiled.ConeKernel(
             np.ascontiguousarray(keep_out, dtype=float),
             np.ascontiguousarray(keep_in, dtype=float),
@@ -531,13 +538,34 @@ class ConeGeometry:
 
     # --- MRP-space obstacles --------------------------------------------------
 
+    @property
+    def rim_circles(self) -> tuple[_Floats, _Floats, _Floats]:
+        """The rim circles of the (inflated) regions: centres ``(P*k, 3)``, unit normals
+        ``(P*k, 3)`` and radii ``(P*k,)``, ``k = samples`` consecutive circles per
+        constraint, in constraint order (built at the first call)."""
+        self._ensure_rims()
+        return self._centres, self._normals, self._radii
+
+    def _ensure_rims(self) -> None:
+        """Build the rim circles and the kernel's rim search, once."""
+        if not self._rims_built:
+            self._build_rim_circles()
+            self._rims_built = True
+            self._kernel = self._make_kernel(rims=True)
+
     def _build_rim_circles(self) -> None:
-        """Precompute the rim circles (centre, unit normal, radius) of every constraint."""
+        """Precompute the rim circles (centre, unit normal, radius) of every constraint.
+
+        The consecutive rims of one body vector (an instrument's keep-out pairs) go
+        through :func:`_fiber_circles` in one call: row by row the same operations, so
+        the same bits as one call per rim, at a fraction of the calls."""
         k = self.samples
         phi = 2.0 * np.pi * np.arange(k) / k
-        centres, normals, radii = [], [], []
-        cones = [
+        # (body vector's key, s, c, beta): keep-out pairs keyed by instrument, each
+        # keep-in cone on its own.
+        cones: list[tuple[int, _Floats, _Floats, float]] = [
             (
+                int(i),
                 self.boresights_body[i],
                 self.directions_inertial[j],
                 np.radians(beta + self.inflation_deg),
@@ -547,30 +575,40 @@ class ConeGeometry:
             )
         ]
         cones += [
-            (a, d, np.radians(max(gamma - self.inflation_deg, 1e-3)))
-            for a, d, gamma in zip(
-                self.keep_in_axes_body,
-                self.keep_in_directions_inertial,
-                self.keep_in_max_angles_deg,
-                strict=True,
+            (-1 - n, a, d, np.radians(max(gamma - self.inflation_deg, 1e-3)))
+            for n, (a, d, gamma) in enumerate(
+                zip(
+                    self.keep_in_axes_body,
+                    self.keep_in_directions_inertial,
+                    self.keep_in_max_angles_deg,
+                    strict=True,
+                )
             )
         ]
-        for s, c, beta in cones:
+        groups: list[tuple[int, _Floats, list[_Floats], list[_Floats]]] = []
+        for key, s, c, beta in cones:
             e1 = _unit_perpendicular(c)
             e2 = cross3(c, e1)
             # Body-vector directions on the cone rim, inertial axes: (k, 3). A rim sample
             # on the body vector itself has the identity on its fibre, which the MRP map
             # sends to a line (a circle of infinite radius): sample half a step over.
             b = self._rim(c, e1, e2, beta, phi)
-            if np.max(b @ s) > 1.0 - 1e-9:
+            b_dot_s = b @ s
+            if np.max(b_dot_s) > 1.0 - 1e-9:
                 b = self._rim(c, e1, e2, beta, phi + np.pi / k)
-            cc, nn, rr = _fiber_circles(s, b)
-            centres.append(cc)
-            normals.append(nn)
-            radii.append(rr)
-        self._centres = np.concatenate(centres)  # (P*k, 3)
-        self._normals = np.concatenate(normals)
-        self._radii = np.concatenate(radii)
+                b_dot_s = b @ s
+            if groups and groups[-1][0] == key:
+                groups[-1][2].append(b)
+                groups[-1][3].append(b_dot_s)
+            else:
+                groups.append((key, s, [b], [b_dot_s]))
+        circles = [
+            _fiber_circles(s, np.concatenate(rims), np.concatenate(dots))
+            for _, s, rims, dots in groups
+        ]
+        self._centres = np.concatenate([cc for cc, _, _ in circles])  # (P*k, 3)
+        self._normals = np.concatenate([nn for _, nn, _ in circles])
+        self._radii = np.concatenate([rr for _, _, rr in circles])
         # Stacked for one matrix product per query: rows [centres; normals].
         self._stack = np.concatenate([self._centres, self._normals])
         self._c_dot_c = np.einsum("ij,ij->i", self._centres, self._centres)
@@ -591,6 +629,7 @@ class ConeGeometry:
 
     def rim_distances_sq(self, sigma: Vec3Like) -> _Floats:
         """Squared distance from ``sigma`` to every precomputed rim circle, ``(P*k,)``."""
+        self._ensure_rims()
         sx, sy, sz = float(sigma[0]), float(sigma[1]), float(sigma[2])
         proj: _Floats = self._stack @ np.array((sx, sy, sz))
         m = self._m
@@ -615,6 +654,7 @@ class ConeGeometry:
         Accurate to second order in the rim spacing; the sign is negative when
         ``sigma`` is inside an inflated region.
         """
+        self._ensure_rims()
         if self._kernel is not None:
             idx, f0, fm, fp, jm, jp = self._kernel.closest_rim(sigma)
         else:
@@ -670,14 +710,17 @@ class ConeGeometry:
         return (cx + f * rx, cy + f * ry, cz + f * rz)
 
 
-def _fiber_circles(s_body: _Floats, b_inertial: _Floats) -> tuple[_Floats, _Floats, _Floats]:
-    """MRP-space circles of the attitudes with ``C_BN^T s = b`` for each row ``b``.
+def _fiber_circles(
+    s_body: _Floats, b_inertial: _Floats, b_dot_s: _Floats | None = None
+) -> tuple[_Floats, _Floats, _Floats]:
+    """MRP-space circles of the attitudes with ``C_BN^T s = b`` for each row ``b``
+    (``b_dot_s``: the rows' ``b . s`` when already known).
 
     Returns centres ``(k, 3)``, unit normals ``(k, 3)`` and radii ``(k,)``.
     """
     k = len(b_inertial)
     # Passive rotation taking inertial b to body s: q0 = normalise(1 + b.s, s x b).
-    w = 1.0 + b_inertial @ s_body
+    w = 1.0 + (b_inertial @ s_body if b_dot_s is None else b_dot_s)
     v = cross3(np.broadcast_to(s_body, b_inertial.shape), b_inertial)
     q_base = np.concatenate([w[:, None], v], axis=1)
     anti = w < 1e-9  # b = -s: rotate by pi about any axis normal to s
