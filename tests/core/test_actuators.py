@@ -58,6 +58,21 @@ def test_clip_saturates_each_axis_on_its_own():
     assert not saturated
 
 
+def test_clip_of_one_torque_is_numpys_clip_to_the_bit():
+    rng = np.random.default_rng(4)
+    torques = list(rng.normal(scale=0.05, size=(2000, 3)))
+    torques += [np.array([0.03, -0.02, 0.05]), np.array([-0.0, 0.0, -0.05]), np.array(BOUND)]
+    torques += [np.array([np.nan, 0.1, -0.1]), np.array([np.inf, -np.inf, 0.01])]
+    bound = np.array(BOUND)
+    for u in torques:
+        v, saturated = clip_to_bound(u, BOUND)
+        expected = np.clip(u, -bound, bound)
+        np.testing.assert_array_equal(v, expected)
+        assert np.array_equal(np.signbit(v), np.signbit(expected))
+        assert saturated == bool(np.any(expected != u))
+        assert v is not u  # a new array, as np.clip's
+
+
 def test_no_bound_is_unlimited():
     u = np.array([10.0, -20.0, 30.0])
     for rule in (scale_to_bound, clip_to_bound):

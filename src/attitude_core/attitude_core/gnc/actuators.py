@@ -45,6 +45,11 @@ def clip_to_bound(torque_b: Vector, max_torque_nm: Sequence[float] | None) -> tu
     u = np.asarray(torque_b, dtype=float)
     if max_torque_nm is None:
         return u, False
+    if u.shape == (3,) and len(max_torque_nm) == 3:  # one torque (every step): in floats
+        x, y, z = u.tolist()
+        bx, by, bz = (float(b) for b in max_torque_nm)
+        cx, cy, cz = min(max(x, -bx), bx), min(max(y, -by), by), min(max(z, -bz), bz)
+        return np.array((cx, cy, cz)), not (cx == x and cy == y and cz == z)
     bound = np.asarray(max_torque_nm, dtype=float)
     clipped: Vector = np.clip(u, -bound, bound)
     return clipped, bool(np.any(clipped != u))
