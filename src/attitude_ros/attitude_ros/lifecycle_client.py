@@ -20,7 +20,7 @@ __all__ = ["LifecycleClient", "GONE_POLL_S", "STATE_RETRY_S"]
 GONE_POLL_S = 0.02
 """How often a wait that may end with the node's process asks whether it has, s."""
 STATE_RETRY_S = 0.1
-"""How long a ``get_state`` request waits for its answer before it is asked again, s.
+"""How long a ``get_state`` request waits for its answer before it is sent again, s.
 The first answer of a service the client has not called before can be lost (the
 server's response writer still matching the client's reader: the request side being
 ready says nothing of it); ``get_state`` changes nothing, so asking again is safe."""
@@ -84,14 +84,26 @@ class LifecycleClient:
 
     def state(self, timeout_s: float, gone: Callable[[], bool] | None = None) -> str | None:
         """The node's current state label; None when it does not answer in time (or
-        ``gone()`` turns true meanwhile: its process has ended). Asked again every
-        :data:`STATE_RETRY_S` until then."""
+        ``gone()`` turns true meanwhile: its process has ended). The request is sent
+        again every :data:`STATE_RETRY_S` while no answer has come; the first answer to
+        any of them counts (a slow node's late answers are not thrown away)."""
         deadline = time.monotonic() + timeout_s
-        while (remaining := deadline - time.monotonic()) > 0 and not (gone and gone()):
-            response = self._call(self.get, GetState.Request(), min(STATE_RETRY_S, remaining), gone)
-            if response is not None:
-                return str(response.current_state.label)
-        return None
+        sent: list[Any] = []
+        next_send = 0.0
+        try:
+            while (now := time.monotonic()) < deadline and not (gone and gone()):
+                if now >= next_send:
+                    sent.append(self.get.call_async(GetState.Request()))
+                    next_send = now + STATE_RETRY_S
+                self._spin(sent[-1], min(GONE_POLL_S, deadline - now))
+                for future in sent:
+                    if future.done():
+                        return str(future.result().current_state.label)
+            return None
+        finally:
+            for future in sent:
+                if not future.done():
+                    self.get.remove_pending_request(future)
 
     def transition(
         self, label: str, timeout_s: float, gone: Callable[[], bool] | None = None
