@@ -19,7 +19,9 @@ recorded span, and offline steps/s = (n_steps + 1) / wall) and the cold
 `attitude-offline` command; the bare rclpy ring (bench/ros_ring.py: the same
 messages between three processes, no work), one ring run right after each ROS run, so
 that each ratio is taken under the same machine load; then ROS steps/s / ring steps/s
-(aim >= 0.6; of the medians, and the median of the run-by-run ratios),
+(aim >= 0.6; of the medians, and the median of the run-by-run ratios); beside it, like
+for like, the ring with a fourth process that reads every topic raw and keeps nothing
+(``ros_ring.py --recorder``: our run has its recorder, the bare ring has none),
 ROS steps/s / offline steps/s and ROS wall / cold offline wall. Every ROS run must have
 reached (reached, min_margin_deg > 0, no failure),
 else it is printed and the script exits 1: a broken run gives no figure.
@@ -118,6 +120,7 @@ def main():
 
     walls, rates, spans, overheads, ok = [], [], [], [], True
     ring_rates = []  # one ring beside each ROS run: each ratio under the same machine load
+    reader_rates = []  # and one with a fourth process reading everything (like for like)
     for i in range(1, args.repeats + 1):
         wall, code, s, err = ros_run(args.scenario, args.mode, args.domain == "caller")
         if s is None:
@@ -138,6 +141,7 @@ def main():
         rates.append(s["steps_per_s"])
         if lockstep:
             ring_rates += ring(args.ring_steps, 1)
+            reader_rates += ring(args.ring_steps, 1, with_recorder=True)
         overheads.append(wall - s["steps_recorded"] / s["steps_per_s"])
         spans.append(s["steps_recorded"] * scen.dt_s)
     if not ok:
@@ -187,6 +191,7 @@ def main():
     cold = row("cold attitude-offline wall", cold_walls, "s", "8.2f")
     print(f"bare rclpy ring (bench/ros_ring.py, {args.ring_steps} steps, three processes)")
     ring_rate = row("ring steps/s", ring_rates, "1/s", "8.0f")
+    reader_rate = row("ring + raw reader of every topic", reader_rates, "1/s", "8.0f")
     print("ratios (medians)")
     if lockstep:
         paired = statistics.median(r / g for r, g in zip(rates, ring_rates, strict=True))
@@ -197,6 +202,11 @@ def main():
         print(
             f"  the same, run by run (median)       {paired:8.3f}  aim >= "
             f"{AIM_RING_RATIO:g}  ratio {paired / AIM_RING_RATIO:.2f}"
+        )
+        like = statistics.median(r / g for r, g in zip(rates, reader_rates, strict=True))
+        print(
+            f"  ROS / ring with the reader, like for like (run by run) "
+            f"{rate / reader_rate:.3f} ({like:.3f})"
         )
     print(f"  ROS steps/s / offline steps/s       {rate / off_rate:8.3f}")
     print(f"  ROS wall / cold offline wall        {wall / cold:8.2f}")
