@@ -227,7 +227,14 @@ def test_realtime_run_steps_on_the_wall_clock(tmp_path, ros_domain):
     }
     index = {s: k for k, s in enumerate(bag_run.stamps_ns.tolist())}
     answered = [s for s in commanded if s in index]
-    assert len(answered) >= len(run.t) - first - 2
+    # The steps from the first recorded torque on have theirs in the bag (two aside).
+    # That first one may come a few steps after the first target: real time does not
+    # wait, and the recorder may discover the controller's publisher later than the
+    # simulator's start gate (each peer judges its outputs matched against its own view
+    # of the graph).
+    first_torque = min((index[s] for s in answered), default=len(run.t))
+    assert first_torque < first + 10
+    assert len(answered) >= len(run.t) - first_torque - 2
     for s in answered:
         k = index[s]
         u = pd_torque(gains, run.sigma_bn[k], run.omega_b[k], run.sigma_t[k], run.omega_t[k])
