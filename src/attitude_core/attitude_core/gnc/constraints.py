@@ -654,7 +654,8 @@ class ConeGeometry:
         Accurate to second order in the rim spacing; the sign is negative when
         ``sigma`` is inside an inflated region.
         """
-        self._ensure_rims()
+        if not self._rims_built:  # tested here: this is every planner step
+            self._ensure_rims()
         if self._kernel is not None:
             idx, f0, fm, fp, jm, jp = self._kernel.closest_rim(sigma)
         else:
