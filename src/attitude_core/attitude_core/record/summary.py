@@ -8,10 +8,13 @@ Margins are measured on the body's attitude, densely
 from __future__ import annotations
 
 import dataclasses
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.status import PlannerStatus
@@ -89,6 +92,14 @@ def _plain(value: Any) -> Any:
     return list(value) if isinstance(value, list) else value
 
 
+def _finite_stat(
+    stat: Callable[[npt.NDArray[np.float64]], Any], values: npt.NDArray[np.float64]
+) -> float:
+    """``stat`` of the finite ``values``; NaN when there is none."""
+    finite = values[np.isfinite(values)]
+    return float(stat(finite)) if finite.size else math.nan
+
+
 def summarize(run: RunResult) -> Summary:
     """Summary figures of a run (the fields of ``summary.json``).
 
@@ -159,8 +170,10 @@ def summarize(run: RunResult) -> Summary:
         route_rotation_deg=(
             None if not np.isfinite(run.route_rotation_deg) else float(run.route_rotation_deg)
         ),
-        planner_step_us_median=float(np.median(step_s) * 1e6),
-        planner_step_us_p99=float(np.percentile(step_s, 99) * 1e6),
+        # Over the steps with a step time: a recorded step can lack the planner's report
+        # (the last states of a run whose planner was stopped first).
+        planner_step_us_median=_finite_stat(np.median, step_s) * 1e6,
+        planner_step_us_p99=_finite_stat(lambda v: np.percentile(v, 99), step_s) * 1e6,
         **_estimation(run),
         sim_time_s=sc.sim_time_s,
         dt_s=sc.dt_s,
