@@ -23,10 +23,10 @@ import numpy as np
 
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.topics import NS_PER_S
-from attitude_core.gnc.actuators import clip_to_bound
-from attitude_core.gnc.control import PdGains, commanded_torque
+from attitude_core.gnc.control import PdGains
 from attitude_core.gnc.dynamics import RigidBody
 from attitude_core.gnc.guidance import Guidance
+from attitude_core.gnc.loop_plant import loop_plant
 from attitude_core.gnc.sensing import OnboardEstimation
 from attitude_core.record.trajectory import Estimates, RunResult
 
@@ -40,14 +40,26 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     dt = scenario.dt_s
     dt_ns = round(dt * NS_PER_S)
     guidance = Guidance.from_scenario(scenario) if scenario.sensors is None else None
-    gains = PdGains(scenario.kp, scenario.kd)
-    limit = scenario.actuators.max_torque_nm
     body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
     sigma = np.empty((n + 1, 3))
     omega = np.empty((n + 1, 3))
     torque = np.empty((n + 1, 3))
     sigma_t = np.empty((n + 1, 3))
     omega_t = np.empty((n + 1, 3))
+    sigma[0], omega[0] = body.sigma_bn, body.omega_b
+    # The controller and the plant: they write the torque, the target and the next
+    # body state into the record (row k + 1 of sigma and omega).
+    plant = loop_plant(
+        PdGains(scenario.kp, scenario.kd),
+        scenario.actuators.max_torque_nm,
+        body,
+        dt,
+        sigma,
+        omega,
+        torque,
+        sigma_t,
+        omega_t,
+    )
     d_obs = np.empty(n + 1)
     status = np.empty(n + 1, dtype=np.int8)
     step_s = np.empty(n + 1)
@@ -57,9 +69,10 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         # The time the planner node derives from the state stamp (k dt in integer ns),
         # to the last bit: the guidance's thresholds then decide alike in both.
         t_k = k * dt_ns / NS_PER_S
-        sigma_m, omega_m = body.sigma_bn, body.omega_b  # the state the loop is fed
+        sigma_k, omega_k = sigma[k], omega[k]  # the body at t_k
+        sigma_m, omega_m = sigma_k, omega_k  # the state the loop is fed
         if onboard is not None:
-            est = onboard.sense(k, t_k, body.sigma_bn, body.omega_b)
+            est = onboard.sense(k, t_k, sigma_k, omega_k)
             if est is None:
                 raise RuntimeError(f"{scenario.name}: no star tracker fix at t = {t_k} s")
             sigma_m, omega_m = est.sigma_bn, est.omega_b
@@ -71,14 +84,9 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         c0 = clock()
         target = guidance.update(t_k, sigma_m, omega_m).target
         step_s[k] = clock() - c0
-        u = commanded_torque(gains, sigma_m, omega_m, target.sigma_t, target.omega_t, limit)
-        u, _ = clip_to_bound(u, limit)  # the plant's own bound (a no-op after the scaling)
-        sigma[k], omega[k], torque[k] = body.sigma_bn, body.omega_b, u
-        sigma_t[k], omega_t[k] = target.sigma_t, target.omega_t
+        plant.step(k, sigma_m, omega_m, target.sigma_t, target.omega_t)
         d_obs[k] = target.obstacle_distance_mrp
         status[k] = target.status.code
-        if k < n:
-            body.step(u, dt)
     assert guidance is not None  # made at the first step
     return RunResult(
         scenario,

@@ -12,11 +12,16 @@ from typing import IO, Any
 
 import yaml
 
-__all__ = ["StrictLoader", "load_strict", "load_safe"]
+__all__ = ["StrictLoader", "dump_safe", "load_strict", "load_safe"]
 
 _SAFE_LOADER: Any = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
 """PyYAML's safe loader on libyaml's parser when PyYAML was built with it (the wheels
 are): the same documents, about ten times faster than the pure-Python parser."""
+
+_SAFE_DUMPER: Any = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
+"""PyYAML's safe dumper on libyaml's emitter when available, about five times faster:
+the same documents as ``yaml.safe_dump`` (read back equal), and the same text for a
+bag's metadata; long strings that need escapes are folded at other places."""
 
 
 class StrictLoader(yaml.SafeLoader):
@@ -64,3 +69,11 @@ def load_safe(text_or_stream: str | bytes | IO[str] | IO[bytes]) -> Any:
     Raises :class:`yaml.YAMLError`.
     """
     return yaml.load(text_or_stream, Loader=_SAFE_LOADER)
+
+
+def dump_safe(data: Any, *, sort_keys: bool = False) -> str:
+    """``yaml.safe_dump(data, sort_keys=sort_keys, default_flow_style=False)`` on
+    libyaml's emitter when available: for machine-written YAML on a hot path (a bag's
+    metadata.yaml, rewritten at every flush of a recording)."""
+    text: str = yaml.dump(data, Dumper=_SAFE_DUMPER, sort_keys=sort_keys, default_flow_style=False)
+    return text

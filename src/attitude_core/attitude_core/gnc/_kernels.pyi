@@ -25,6 +25,26 @@ def rk4_step(
     torque_b: _Vec,
     dt: float,
 ) -> tuple[tuple[float, float, float], tuple[float, float, float]]: ...
+
+class LoopPlant:
+    def __init__(
+        self,
+        kp: tuple[float, ...],
+        kd: tuple[float, ...],
+        bound: Sequence[float] | None,
+        inertia: tuple[float, ...],
+        inertia_inv: tuple[float, ...],
+        dt: float,
+        sigma: npt.NDArray[np.float64],
+        omega: npt.NDArray[np.float64],
+        torque: npt.NDArray[np.float64],
+        sigma_t: npt.NDArray[np.float64],
+        omega_t: npt.NDArray[np.float64],
+    ) -> None: ...
+    def step(
+        self, k: int, sigma_m: _Vec, omega_m: _Vec, target_sigma: _Vec, target_omega: _Vec
+    ) -> None: ...
+
 def dense_interval_minima(
     kernel: ConeKernel,
     t: npt.NDArray[np.float64],

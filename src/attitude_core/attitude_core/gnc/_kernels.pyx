@@ -11,6 +11,8 @@ what the tests compare against (``tests/core/test_kernels.py``):
   then ``gnc.actuators.scale_to_bound``);
 * :func:`rk4_step`: one RK4 step of eqs. 3-4 with the shadow switch of eq. 2
   (``gnc.dynamics.RigidBody.step``, the same operations in the same order);
+* :class:`LoopPlant`: both of them and the plant's clip for one step of the offline
+  loop, written into the run's record (``closed_loop.LoopPlantReference``);
 * :class:`ConeKernel`: a geometry's exact keep-out / keep-in margins at an attitude and
   along a short eigenaxis rotation (``ConeGeometry.min_margin_deg_single`` /
   ``arc_min_margin_deg_single``), the nearest MRP-space rim circle
@@ -133,6 +135,39 @@ def relative(sigma_bn, sigma_rn):
     return out[0], out[1], out[2]
 
 
+cdef inline bint _pd(
+    const double* g, const double* d, const double* s, const double* w, const double* sr,
+    const double* wr, const double* bound, double* u
+) noexcept nogil:
+    """Eq. 11 into ``u``, scaled into ``bound`` (3 limits, or NULL): True when scaled."""
+    cdef double e[3]
+    cdef double c[9]
+    cdef int i
+    _relative(s[0], s[1], s[2], sr[0], sr[1], sr[2], e)
+    _dcm_rows(e[0], e[1], e[2], c)
+    cdef double o1 = wr[0], o2 = wr[1], o3 = wr[2]
+    cdef double w1 = w[0] - (c[0] * o1 + c[1] * o2 + c[2] * o3)
+    cdef double w2 = w[1] - (c[3] * o1 + c[4] * o2 + c[5] * o3)
+    cdef double w3 = w[2] - (c[6] * o1 + c[7] * o2 + c[8] * o3)
+    for i in range(3):
+        u[i] = -(g[3 * i] * e[0] + g[3 * i + 1] * e[1] + g[3 * i + 2] * e[2]) - (
+            d[3 * i] * w1 + d[3 * i + 1] * w2 + d[3 * i + 2] * w3
+        )
+    if bound == NULL:
+        return False
+    cdef double ratio = fabs(u[0]) / bound[0]
+    cdef double r
+    for i in range(1, 3):
+        r = fabs(u[i]) / bound[i]
+        if r > ratio:
+            ratio = r
+    if ratio <= 1.0:
+        return False
+    for i in range(3):
+        u[i] = u[i] / ratio
+    return True
+
+
 def pd_command(
     tuple kp, tuple kd, sigma_bn, omega_b, sigma_rn, omega_r, bound
 ):
@@ -143,34 +178,26 @@ def pd_command(
     """
     cdef double g[9]
     cdef double d[9]
+    cdef double s[3]
+    cdef double w[3]
+    cdef double sr[3]
+    cdef double wr[3]
+    cdef double b[3]
+    cdef double u[3]
     cdef int i
     for i in range(9):
         g[i] = kp[i]
         d[i] = kd[i]
-    cdef double e[3]
-    cdef double c[9]
-    _relative(sigma_bn[0], sigma_bn[1], sigma_bn[2], sigma_rn[0], sigma_rn[1], sigma_rn[2], e)
-    _dcm_rows(e[0], e[1], e[2], c)
-    cdef double o1 = omega_r[0], o2 = omega_r[1], o3 = omega_r[2]
-    cdef double w1 = omega_b[0] - (c[0] * o1 + c[1] * o2 + c[2] * o3)
-    cdef double w2 = omega_b[1] - (c[3] * o1 + c[4] * o2 + c[5] * o3)
-    cdef double w3 = omega_b[2] - (c[6] * o1 + c[7] * o2 + c[8] * o3)
-    cdef double u[3]
     for i in range(3):
-        u[i] = -(g[3 * i] * e[0] + g[3 * i + 1] * e[1] + g[3 * i + 2] * e[2]) - (
-            d[3 * i] * w1 + d[3 * i + 1] * w2 + d[3 * i + 2] * w3
-        )
-    if bound is None:
-        return u[0], u[1], u[2], False
-    cdef double ratio = fabs(u[0]) / <double>bound[0]
-    cdef double r
-    for i in range(1, 3):
-        r = fabs(u[i]) / <double>bound[i]
-        if r > ratio:
-            ratio = r
-    if ratio <= 1.0:
-        return u[0], u[1], u[2], False
-    return u[0] / ratio, u[1] / ratio, u[2] / ratio, True
+        s[i] = sigma_bn[i]
+        w[i] = omega_b[i]
+        sr[i] = sigma_rn[i]
+        wr[i] = omega_r[i]
+    if bound is not None:
+        for i in range(3):
+            b[i] = bound[i]
+    cdef bint scaled = _pd(g, d, s, w, sr, wr, NULL if bound is None else b, u)
+    return u[0], u[1], u[2], scaled
 
 
 cdef inline void _deriv(
@@ -197,6 +224,46 @@ cdef inline void _deriv(
     ds[2] = 0.25 * (a * w3 + 2.0 * (s1 * w2 - s2 * w1) + 2.0 * s3 * sw)
 
 
+cdef inline void _rk4(
+    const double* j, const double* ji, const double* u, const double* s0, const double* w0,
+    double dt, double* s, double* w
+) noexcept nogil:
+    """One RK4 step of eqs. 3-4 with ``u`` held, then the shadow switch (eq. 2)."""
+    cdef double k1s[3]
+    cdef double k1w[3]
+    cdef double k2s[3]
+    cdef double k2w[3]
+    cdef double k3s[3]
+    cdef double k3w[3]
+    cdef double k4s[3]
+    cdef double k4w[3]
+    cdef double xs[3]
+    cdef double xw[3]
+    cdef double h = 0.5 * dt
+    cdef int i
+    _deriv(j, ji, u, s0, w0, k1s, k1w)
+    for i in range(3):
+        xs[i] = s0[i] + h * k1s[i]
+        xw[i] = w0[i] + h * k1w[i]
+    _deriv(j, ji, u, xs, xw, k2s, k2w)
+    for i in range(3):
+        xs[i] = s0[i] + h * k2s[i]
+        xw[i] = w0[i] + h * k2w[i]
+    _deriv(j, ji, u, xs, xw, k3s, k3w)
+    for i in range(3):
+        xs[i] = s0[i] + dt * k3s[i]
+        xw[i] = w0[i] + dt * k3w[i]
+    _deriv(j, ji, u, xs, xw, k4s, k4w)
+    cdef double f = dt / 6.0
+    for i in range(3):
+        s[i] = s0[i] + f * (k1s[i] + 2.0 * k2s[i] + 2.0 * k3s[i] + k4s[i])
+        w[i] = w0[i] + f * (k1w[i] + 2.0 * k2w[i] + 2.0 * k3w[i] + k4w[i])
+    cdef double ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
+    if ss > 1.0:
+        for i in range(3):
+            s[i] = -s[i] / ss
+
+
 def rk4_step(tuple inertia, tuple inertia_inv, sigma_bn, omega_b, torque_b, double dt):
     """One RK4 step of eqs. 3-4 with ``torque_b`` held, then the shadow switch (eq. 2):
     ``(sigma_bn, omega_b)`` after ``dt`` seconds as two 3-tuples. ``inertia``,
@@ -214,41 +281,85 @@ def rk4_step(tuple inertia, tuple inertia_inv, sigma_bn, omega_b, torque_b, doub
         u[i] = torque_b[i]
         s0[i] = sigma_bn[i]
         w0[i] = omega_b[i]
-    cdef double k1s[3]
-    cdef double k1w[3]
-    cdef double k2s[3]
-    cdef double k2w[3]
-    cdef double k3s[3]
-    cdef double k3w[3]
-    cdef double k4s[3]
-    cdef double k4w[3]
-    cdef double xs[3]
-    cdef double xw[3]
-    cdef double h = 0.5 * dt
-    _deriv(j, ji, u, s0, w0, k1s, k1w)
-    for i in range(3):
-        xs[i] = s0[i] + h * k1s[i]
-        xw[i] = w0[i] + h * k1w[i]
-    _deriv(j, ji, u, xs, xw, k2s, k2w)
-    for i in range(3):
-        xs[i] = s0[i] + h * k2s[i]
-        xw[i] = w0[i] + h * k2w[i]
-    _deriv(j, ji, u, xs, xw, k3s, k3w)
-    for i in range(3):
-        xs[i] = s0[i] + dt * k3s[i]
-        xw[i] = w0[i] + dt * k3w[i]
-    _deriv(j, ji, u, xs, xw, k4s, k4w)
-    cdef double f = dt / 6.0
     cdef double s[3]
     cdef double w[3]
-    for i in range(3):
-        s[i] = s0[i] + f * (k1s[i] + 2.0 * k2s[i] + 2.0 * k3s[i] + k4s[i])
-        w[i] = w0[i] + f * (k1w[i] + 2.0 * k2w[i] + 2.0 * k3w[i] + k4w[i])
-    cdef double ss = s[0] * s[0] + s[1] * s[1] + s[2] * s[2]
-    if ss > 1.0:
-        for i in range(3):
-            s[i] = -s[i] / ss
+    _rk4(j, ji, u, s0, w0, dt, s, w)
     return (s[0], s[1], s[2]), (w[0], w[1], w[2])
+
+
+cdef class LoopPlant:
+    """The offline loop's controller and plant for one run, writing its record in place
+    (the compiled form of ``closed_loop.LoopPlantReference``).
+
+    :meth:`step` at step ``k``: the PD command from the state the loop is fed and the
+    target (:func:`pd_command`), the plant's per-axis clip (``actuators.clip_to_bound``),
+    the record's row ``k`` (torque, target) and, unless ``k`` is the last row, one RK4
+    step of the body from row ``k`` to row ``k + 1`` (:func:`rk4_step`). The arrays are
+    the run's ``(n + 1, 3)`` C-contiguous float arrays; row 0 of ``sigma`` and ``omega``
+    holds the initial state.
+    """
+
+    cdef double g[9]
+    cdef double d[9]
+    cdef double j[9]
+    cdef double ji[9]
+    cdef double b[3]
+    cdef bint bounded
+    cdef double dt
+    cdef double[:, ::1] sigma
+    cdef double[:, ::1] omega
+    cdef double[:, ::1] torque
+    cdef double[:, ::1] sigma_t
+    cdef double[:, ::1] omega_t
+
+    def __init__(
+        self, tuple kp, tuple kd, bound, tuple inertia, tuple inertia_inv, double dt,
+        double[:, ::1] sigma, double[:, ::1] omega, double[:, ::1] torque,
+        double[:, ::1] sigma_t, double[:, ::1] omega_t,
+    ):
+        cdef int i
+        for i in range(9):
+            self.g[i] = kp[i]
+            self.d[i] = kd[i]
+            self.j[i] = inertia[i]
+            self.ji[i] = inertia_inv[i]
+        self.bounded = bound is not None
+        if self.bounded:
+            for i in range(3):
+                self.b[i] = bound[i]
+        self.dt = dt
+        self.sigma, self.omega, self.torque = sigma, omega, torque
+        self.sigma_t, self.omega_t = sigma_t, omega_t
+
+    def step(self, Py_ssize_t k, sigma_m, omega_m, target_sigma, target_omega):
+        cdef double s[3]
+        cdef double w[3]
+        cdef double sr[3]
+        cdef double wr[3]
+        cdef double u[3]
+        cdef double x
+        cdef int i
+        for i in range(3):
+            s[i] = sigma_m[i]
+            w[i] = omega_m[i]
+            sr[i] = target_sigma[i]
+            wr[i] = target_omega[i]
+        _pd(self.g, self.d, s, w, sr, wr, self.b if self.bounded else NULL, u)
+        if self.bounded:  # min(max(x, -b), b), as the plant's clip
+            for i in range(3):
+                x = u[i]
+                if x < -self.b[i]:
+                    x = -self.b[i]
+                if self.b[i] < x:
+                    x = self.b[i]
+                u[i] = x
+        for i in range(3):
+            self.torque[k, i] = u[i]
+            self.sigma_t[k, i] = sr[i]
+            self.omega_t[k, i] = wr[i]
+        if k + 1 < self.sigma.shape[0]:
+            _rk4(self.j, self.ji, u, &self.sigma[k, 0], &self.omega[k, 0], self.dt,
+                 &self.sigma[k + 1, 0], &self.omega[k + 1, 0])
 
 
 cdef double _min_margin(

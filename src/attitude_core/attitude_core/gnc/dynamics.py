@@ -40,8 +40,8 @@ class RigidBody:
         self.omega_b: _Floats = np.asarray(omega_b, dtype=float).copy()
         self._j_rows = tuple(map(tuple, self.inertia.tolist()))
         self._ji_rows = tuple(map(tuple, self.inertia_inv.tolist()))
-        self._j_flat = tuple(self.inertia.ravel().tolist())
-        self._ji_flat = tuple(self.inertia_inv.ravel().tolist())
+        self.inertia_flat = tuple(self.inertia.ravel().tolist())
+        self.inertia_inv_flat = tuple(self.inertia_inv.ravel().tolist())
 
     def step(self, torque_b: Vec3Like, dt: float) -> None:
         """Advance by ``dt`` seconds with torque ``torque_b`` held constant (RK4)."""
@@ -50,7 +50,7 @@ class RigidBody:
             self.step_reference(torque_b, dt)
             return
         sigma, omega = k.rk4_step(
-            self._j_flat, self._ji_flat, self.sigma_bn, self.omega_b, torque_b, dt
+            self.inertia_flat, self.inertia_inv_flat, self.sigma_bn, self.omega_b, torque_b, dt
         )
         self.sigma_bn = np.array(sigma)
         self.omega_b = np.array(omega)

@@ -34,7 +34,7 @@ from mcap.data_stream import RecordBuilder
 from mcap.records import Channel, Schema
 from mcap.writer import LIBRARY_IDENTIFIER, CompressionType, Writer
 
-from attitude_core.yamlio import load_safe
+from attitude_core.yamlio import dump_safe, load_safe
 from attitude_tools.bag import msgdefs
 from attitude_tools.bag.layout import METADATA_FILE, RESERVE_FILE
 
@@ -398,9 +398,7 @@ class BagWriter:
                 # The last chunk first: the rosbag2 record then sits right before the
                 # data end, where bag_recovery expects it (nothing after it to lose).
                 self._mcap.flush()  # type: ignore[no-untyped-call]
-                self._mcap.add_metadata(
-                    "rosbag2", {"serialized_metadata": yaml.safe_dump(info, sort_keys=False)}
-                )
+                self._mcap.add_metadata("rosbag2", {"serialized_metadata": dump_safe(info)})
                 self._mcap.finish()  # type: ignore[no-untyped-call]
                 self._file.flush()
                 os.fsync(self._file.fileno())
@@ -560,11 +558,7 @@ def bagfile_information(
 
 def write_metadata_yaml(bag_dir: str, info: dict[str, Any]) -> None:
     """Replace ``bag_dir``/metadata.yaml atomically (temp file, fsync, os.replace)."""
-    text = yaml.safe_dump(
-        {"rosbag2_bagfile_information": info},
-        sort_keys=False,
-        default_flow_style=False,
-    )
+    text = dump_safe({"rosbag2_bagfile_information": info})
     path = os.path.join(bag_dir, METADATA_FILE)
     tmp = os.path.join(bag_dir, f".{METADATA_FILE}.tmp")
     try:

@@ -12,6 +12,14 @@ below the ephemeral port range (32768...) for those, and 0, the default domain, 
 to interactive use. The IDs are tried in random order; ``bind`` is atomic, so two
 processes can never hold the same one, and a taken port is simply skipped.
 
+A released ID cools down for :data:`COOLDOWN_S` before it is handed out again (unless
+every other ID is taken): the processes of the run or test that held it may still be
+stopping (a node's bring-down can take seconds on a loaded machine, an orphan notices
+its dead parent within a poll), and their nodes must not show up in the next holder's
+graph. :meth:`DomainReservation.release` stamps the ID's file in
+:func:`cooldown_dir`; the stamps are a preference, never a lock (a holder that dies
+without releasing leaves none, and its ID is free at once, as before).
+
 ``attitude-run`` reserves one for the run when the caller set no ``ROS_DOMAIN_ID``; the
 tests reserve one per test.
 """
@@ -21,11 +29,14 @@ from __future__ import annotations
 import os
 import random
 import socket
+import tempfile
+import time
 from collections.abc import Mapping
 
 from attitude_core.runtime import discovery
 
 __all__ = [
+    "COOLDOWN_S",
     "DOMAIN_PORT_BASE",
     "DOMAIN_IDS",
     "NoFreeDomain",
@@ -36,6 +47,33 @@ __all__ = [
 
 DOMAIN_PORT_BASE = 22119  # domain_coordinator's _PORT_BASE
 DOMAIN_IDS = range(1, 102)
+COOLDOWN_S = 30.0
+"""A released domain ID is handed out again only after this (s), while others are free."""
+
+
+def cooldown_dir() -> str:
+    """Where released IDs are stamped: ``attitude_domains-<uid>`` in the temp directory."""
+    return os.path.join(tempfile.gettempdir(), f"attitude_domains-{os.getuid()}")
+
+
+def _released_at(domain_id: int) -> float:
+    """When ``domain_id`` was last released (epoch s), or -inf when it has no stamp."""
+    try:
+        return os.stat(os.path.join(cooldown_dir(), str(domain_id))).st_mtime
+    except OSError:
+        return -float("inf")
+
+
+def _stamp_release(domain_id: int) -> None:
+    """Stamp ``domain_id`` as released now (best effort: a failure only loses its cool-down)."""
+    try:
+        os.makedirs(cooldown_dir(), mode=0o700, exist_ok=True)
+        path = os.path.join(cooldown_dir(), str(domain_id))
+        with open(path, "a", encoding="utf-8"):
+            pass
+        os.utime(path)
+    except OSError:
+        pass
 
 
 class NoFreeDomain(RuntimeError):
@@ -55,6 +93,10 @@ class DomainReservation:
         return domain_environment(self.id, base)
 
     def release(self) -> None:
+        """Free the ID (it then cools down for :data:`COOLDOWN_S`); idempotent."""
+        if self._sock.fileno() == -1:
+            return
+        _stamp_release(self.id)
         self._sock.close()
 
     def __enter__(self) -> DomainReservation:
@@ -76,9 +118,12 @@ def domain_environment(domain_id: int, base: Mapping[str, str] | None = None) ->
 
 
 def reserve_domain() -> DomainReservation:
-    """Reserve a free ROS domain ID in 1..101 (random order); NoFreeDomain if none is."""
+    """Reserve a free ROS domain ID in 1..101 (random order, those released within
+    :data:`COOLDOWN_S` last); NoFreeDomain if none is."""
     ids = list(DOMAIN_IDS)
     random.SystemRandom().shuffle(ids)
+    now = time.time()
+    ids.sort(key=lambda d: now - _released_at(d) < COOLDOWN_S)  # stable: cooling ones last
     for domain_id in ids:
         sock = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
         try:
