@@ -93,13 +93,21 @@ def exit_process(code: int) -> NoReturn:
     modules skipped; nothing of ours is left to flush: a node's files are closed by its
     ``close``). Destroy the nodes first: their destruction is what removes them from
     the peers' graph; without it they stay listed until the participant's lease (10 s)
-    runs out."""
+    runs out.
+
+    The context's destruction waits for its last user, and reference cycles of the
+    node's objects keep some alive until a garbage collection this exit skips (about
+    0.1 s): the participant is then not destroyed, so its shared-memory segment is
+    removed here (:func:`attitude_core.runtime.shm_segments.remove_own_segments`)."""
     import rclpy
+
+    from attitude_core.runtime.shm_segments import remove_own_segments
 
     rclpy.try_shutdown()
     context = rclpy.get_default_context()
     if context.handle is not None:
         context.destroy()
+    remove_own_segments()
     for stream in (sys.stdout, sys.stderr):
         with contextlib.suppress(OSError, ValueError):  # a closed pipe: nothing to save
             stream.flush()

@@ -33,6 +33,7 @@ from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, IMU, STAR_TRACKER
 from attitude_core.runtime import run_identity
 from attitude_core.runtime.recording import EXIT_NO_PLANT
+from attitude_core.runtime.shm_segments import sweep_orphan_segments
 from attitude_tools.bag.recovery import (
     NotABagError,
     Recovery,
@@ -195,6 +196,7 @@ def stage_run(req: RunRequest, inputs: CheckedInputs, env: dict[str, str]) -> St
     executables = node_executables(env, [*inputs.started, graph.MANAGER])  # RunError
     namespace = req.namespace or run_identity.run_namespace()
     reservation = claim_domain(env, sys.executable)  # DomainBusyError: nothing written
+    sweep_orphan_segments()  # Fast DDS segments of node processes that are gone
     timeout_s = req.timeout_s
     if timeout_s is None:  # an external plant may run in real time in either mode
         paced = req.time_mode == "realtime" or req.plant == PLANT_EXTERNAL
