@@ -117,3 +117,12 @@ def test_a_run_namespace_is_any_valid_namespace_but_the_root():
     assert ri.node_name_error("/bench/bsk_bridge") is None
     assert ri.node_name_error("bsk_bridge") is not None
     assert ri.node_name_error("/bsk-bridge") is not None
+
+
+def test_matched_readers_round_trip_and_malformed_items_are_dropped():
+    readers = {"/planner/target_mrp": 2, "/diagnostics": 1, "/controller/torque": 0}
+    text = ri.format_readers(readers)
+    assert text == "/controller/torque=0;/diagnostics=1;/planner/target_mrp=2"
+    assert ri.parse_readers(text) == readers
+    assert ri.format_readers(None) == "" and ri.parse_readers("") == {}
+    assert ri.parse_readers("/a=1;b=2;/c=x;/d;/e=-1;/f=3") == {"/a": 1, "/f": 3}

@@ -295,6 +295,27 @@ def test_readiness_rule(e):
     assert r.min_publishers == {t.TARGET_MRP: 1, t.TARGET_RATE: 1, t.TORQUE: 1}
 
 
+@pytest.mark.parametrize("sensing", [False, True])
+def test_min_readers_are_the_real_readers_of_each_per_step_output(sensing):
+    """The sure start: with the node table's listeners, each loop node's per-step output
+    waits for exactly the nodes of the table that subscribe it (the recorder reads all;
+    /diagnostics: the per-step writer, read by the recorder only, the guards' and the
+    manager's identity readers being of the other durability)."""
+    graph = g.graph(sensing)
+    nodes = graph.nodes
+    r = g.readiness(g.state_listeners(nodes), sensing)
+    assert set(r.min_readers) == {spec.role for spec in graph.loop}
+    for spec in graph.loop:
+        wants = r.min_readers[spec.role]
+        assert set(wants) <= set(g.per_step_outputs(spec))
+        for name, n in wants.items():
+            readers = [m for m in nodes if name in m.subscribes and name != t.DIAGNOSTICS]
+            assert n == (1 if name == t.DIAGNOSTICS else len(readers)), (spec.role, name)
+    assert t.CLOCK not in r.min_readers["simulator"]
+    assert t.PLANNER_STATUS not in r.min_readers["planner"]  # latched: late joiners get it
+    assert g.readiness(2).min_readers["planner"] == {t.TARGET_MRP: 1, t.TARGET_RATE: 1}
+
+
 def test_readiness_of_the_default_graph_counts_the_real_subscribers():
     """With the node table's listeners, each topic waits for exactly its subscribers."""
     r = g.readiness(g.state_listeners())

@@ -17,6 +17,7 @@ from support import attitude_run, needs_workspace, run_env
 
 from attitude_core.closed_loop import run_closed_loop
 from attitude_core.config.scenario import load_scenario
+from attitude_core.contract.diagnostics import HARDWARE_ID as DIAG_HARDWARE_ID
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ATTITUDE, CLOCK, PLANNER_STATUS, TOPICS, TORQUE, stamp_ns
 from attitude_core.gnc.control import PdGains, pd_torque
@@ -156,8 +157,13 @@ def test_bag_reads_back_with_an_independent_reader(paper_case):
         state_stamps: set[tuple[int, int]] = set()
         torque_stamps: set[tuple[int, int]] = set()
         target_stamps: set[tuple[int, int]] = set()
+        report_stamps: set[tuple[int, int]] = set()  # the planner's per-step diagnostics
         for conn, _, raw in reader.messages():
             seen[conn.topic] += 1
+            if conn.topic == "/diagnostics":
+                msg = reader.deserialize(raw, conn.msgtype)
+                if any(st.hardware_id == DIAG_HARDWARE_ID for st in msg.status):
+                    report_stamps.add((msg.header.stamp.sec, msg.header.stamp.nanosec))
             if conn.topic == "/planner/target_mrp":
                 msg = reader.deserialize(raw, conn.msgtype)
                 target_stamps.add((msg.header.stamp.sec, msg.header.stamp.nanosec))
@@ -178,6 +184,10 @@ def test_bag_reads_back_with_an_independent_reader(paper_case):
     # From the first step on: the loop starts once every reader of the nodes' outputs
     # (the recorder's too) has matched, so no target of an early step is missing.
     assert len(state_stamps - target_stamps) <= 1 and target_stamps <= state_stamps
+    # The same for the outputs only the recorder reads: the planner's per-step report and
+    # its margin (the simulator's sure start: every per-step writer counts its readers).
+    assert len(state_stamps - report_stamps) <= 1 and report_stamps <= state_stamps
+    assert counts["/planner/keep_out_margin_deg"] >= len(state_stamps) - 1
     np.testing.assert_array_equal(np.array(quats), [(q.x, q.y, q.z, q.w) for q in mine])
 
 

@@ -21,7 +21,7 @@ Every node of the table creates one :class:`RunGuard`. It
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -86,6 +86,13 @@ def diagnostics_events(node: Node, publisher: bool) -> Any:
     return SubscriptionEventCallbacks(incompatible_qos=on_incompatible)
 
 
+def _short(readers: Mapping[str, int], wanted: Mapping[str, int], own: bool = False) -> bool:
+    """Whether an output has fewer matched readers (``readers``: topic -> count) than
+    ``wanted``; a topic missing from ``readers`` counts none, except in the node's
+    ``own`` (a simulator publishes the state or the sensors, as the run has them)."""
+    return any(readers.get(name, 0) < n for name, n in wanted.items() if not own or name in readers)
+
+
 class RunGuard:
     def __init__(
         self,
@@ -113,6 +120,8 @@ class RunGuard:
         self._unknown_since: dict[str, float] = {}
         self.peers: dict[str, str] = {}  # role -> fingerprint, same namespace
         self.peers_matched: dict[str, bool] = {}  # role -> its outputs all matched
+        self.peers_readers: dict[str, dict[str, int]] = {}  # role -> topic -> matched readers
+        self._readers_said: dict[str, int] | None = None  # as last published
         self.matched = False  # as last published
         self._agreed_since: float | None = None
         self.fatal = False
@@ -132,7 +141,8 @@ class RunGuard:
         node.create_timer(AUDIT_PERIOD_S, self.audit)
         node.create_timer(IDENTITY_PERIOD_S, self.publish_identity)
         self.publish_identity()
-        # Checked every 20 ms until the outputs are matched (a cheap test while inactive).
+        # Checked every 20 ms until the loop runs (a cheap test while inactive): the
+        # identity is published again at once when the matched readers change.
         self._match_timer: Any = node.create_timer(0.02, self._check_matched) if stops else None
 
     # -- foreign publishers --------------------------------------------------------
@@ -153,6 +163,9 @@ class RunGuard:
 
     def admit(self, topic: str) -> bool:
         """Whether a sample just taken from ``topic`` may be used (call per message)."""
+        if self._match_timer is not None:  # the loop runs: the start-up gate is passed
+            self._match_timer.cancel()
+            self._match_timer = None
         if self._publisher_count(topic) != self._counts.get(topic):
             self.audit()
         if topic in self.compromised or (self.strict and topic in self._unknown_since):
@@ -248,14 +261,25 @@ class RunGuard:
             for pub in self._outputs()
         )
 
+    def matched_readers(self) -> dict[str, int]:
+        """Readers matched by each of the node's per-step outputs, as its writers count
+        them (:func:`~attitude_core.contract.node_graph.per_step_outputs`; on
+        ``/diagnostics`` the per-step writer, not the identity's)."""
+        per_step = set(node_graph.per_step_outputs(self.spec))
+        return {
+            pub.topic_name: pub.get_subscription_count()
+            for pub in self.node.publishers
+            if pub.topic_name in per_step and pub is not self.pub
+        }
+
     def _check_matched(self) -> None:
-        """Say it as soon as the outputs are matched (then every IDENTITY_PERIOD_S)."""
-        if self.outputs_matched():
+        """Say it as soon as the matched readers change (and every IDENTITY_PERIOD_S)."""
+        if self.matched_readers() != self._readers_said or self.outputs_matched() != self.matched:
             self.publish_identity()
-            self._match_timer.cancel()
 
     def publish_identity(self) -> None:
         self.matched = self.outputs_matched()
+        self._readers_said = self.matched_readers()
         values = {
             ri.ROLE: self.spec.role,
             ri.RUN_NAMESPACE: self.namespace,
@@ -266,6 +290,7 @@ class RunGuard:
                 int(getattr(self.node, "rejected", 0)) + self.refused_foreign
             ),
             ri.OUTPUTS_MATCHED: "1" if self.matched else "0",
+            ri.MATCHED_READERS: ri.format_readers(self._readers_said),
         }
         status = DiagnosticStatus(
             level=DiagnosticStatus.ERROR if self.foreign else DiagnosticStatus.OK,
@@ -290,6 +315,7 @@ class RunGuard:
                 continue  # itself, or a node without a scenario (the recorder)
             self.peers[role] = fingerprint
             self.peers_matched[role] = values.get(ri.OUTPUTS_MATCHED, "1") == "1"
+            self.peers_readers[role] = ri.parse_readers(values.get(ri.MATCHED_READERS, ""))
             if fingerprint != self.fingerprint:
                 self._fatal(
                     ri.EXIT_FINGERPRINT_MISMATCH,
@@ -298,24 +324,39 @@ class RunGuard:
                     "they started with the same scenario file?",
                 )
 
-    def peers_agree(self) -> bool:
+    def peers_agree(self, min_readers: Mapping[str, Mapping[str, int]] | None = None) -> bool:
         """True once every loop node of this namespace in the graph has been heard with
         this node's fingerprint, and with its outputs and this node's matched (the
         simulator's start-up gate; for at most :data:`~ri.MATCH_GRACE_S` the matching
-        is waited for, then the run starts with a warning naming who is unmatched)."""
+        is waited for, then the run starts with a warning naming who is unmatched).
+
+        ``min_readers`` (:attr:`~attitude_core.contract.node_graph.Readiness.min_readers`):
+        per role, the readers each per-step output must have matched, counted by the
+        node that publishes it (this node's own, and each present peer's as it last
+        said): every expected reader then takes the first sample."""
         present = {
             name
             for name, namespace in self.node.get_node_names_and_namespaces()
             if namespace == self.namespace
         }
+        wanted = min_readers or {}
+        own = self.matched_readers()
+        mine = wanted.get(self.spec.role, {})
         unmatched = [] if self.outputs_matched() else [self.spec.role]
-        for spec in node_graph.LOOP:
+        if not unmatched and _short(own, mine, own=True):
+            unmatched.append(self.spec.role)
+        for spec in node_graph.SENSING_LOOP:
             if spec is self.spec or spec.node_name not in present:
                 continue
             if self.peers.get(spec.role) != self.fingerprint:
-                self._agreed_since = None
-                return False
-            if not self.peers_matched.get(spec.role, True):
+                if spec in node_graph.LOOP:
+                    self._agreed_since = None
+                    return False
+                continue  # the estimator's identity is not waited for
+            readers = self.peers_readers.get(spec.role, {})
+            if not self.peers_matched.get(spec.role, True) or _short(
+                readers, wanted.get(spec.role, {})
+            ):
                 unmatched.append(spec.role)
         if not unmatched:
             return True

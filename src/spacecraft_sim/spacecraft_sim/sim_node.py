@@ -94,7 +94,7 @@ class RigidBodySimNode(StackNode):
     def on_wait_timer(self) -> None:
         if self.done or not self.active:  # inactive: no stepping (a safe stop)
             return
-        ready = self.graph_ready() and self.guard.peers_agree()
+        ready = self.graph_ready() and self.guard.peers_agree(self.ready.min_readers)
         decision = self.stepper.poll_graph(time.monotonic(), ready)
         if decision.action == Action.FAIL:
             self.get_logger().error(

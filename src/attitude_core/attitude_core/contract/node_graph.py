@@ -11,7 +11,7 @@ data, no ROS import.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Generic, TypeVar
 
 from attitude_core.config import node_parameters as params
@@ -29,6 +29,7 @@ __all__ = [
     "node",
     "state_listeners",
     "Readiness",
+    "per_step_outputs",
     "readiness",
     "ESTIMATOR",
     "MANAGER",
@@ -191,10 +192,24 @@ def state_listeners(nodes: tuple[NodeSpec[Any], ...] = NODES) -> int:
 
 @dataclass(frozen=True)
 class Readiness:
-    """Endpoint counts the simulator waits for before its first step."""
+    """Endpoint counts the simulator waits for before its first step: readers and
+    writers in its own view of the graph, and ``min_readers``: per loop node (role), the
+    readers each of its per-step outputs must have matched, as that node reports them
+    (the simulator's view can be ahead of a peer's: a reader it sees may not have
+    matched the peer's writer yet)."""
 
     min_subscribers: dict[str, int]
     min_publishers: dict[str, int]
+    min_readers: dict[str, dict[str, int]] = field(default_factory=dict)
+
+
+def per_step_outputs(spec: NodeSpec[Any]) -> tuple[str, ...]:
+    """The topics ``spec`` publishes at every step whose readers are counted before the
+    first one: not a latched topic, not ``/clock`` (rclpy's time source reads it best
+    effort, in the nodes that use it). On ``/diagnostics`` the count is of the per-step
+    (volatile) writer's readers: the run identities' transient-local readers (every
+    node's guard, the lifecycle manager) do not match it."""
+    return tuple(name for name in spec.publishes if name != t.CLOCK and not t.topic(name).latched)
 
 
 def readiness(expected_subscribers: int, sensing: bool = False) -> Readiness:
@@ -220,4 +235,12 @@ def readiness(expected_subscribers: int, sensing: bool = False) -> Readiness:
         for name in n.publishes
         if any(name in m.subscribes for m in loop)
     }
-    return Readiness(subs, dict(sorted(pubs.items())))
+    readers = {
+        n.role: {
+            name: sum(name in m.subscribes for m in loop) + max(observers, 0)
+            for name in per_step_outputs(n)
+        }
+        for n in loop
+    }
+    readers = {role: {k: v for k, v in wants.items() if v > 0} for role, wants in readers.items()}
+    return Readiness(subs, dict(sorted(pubs.items())), readers)

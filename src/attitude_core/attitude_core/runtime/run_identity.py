@@ -56,6 +56,9 @@ __all__ = [
     "FOREIGN_NAMES",
     "REJECTED_MESSAGES",
     "OUTPUTS_MATCHED",
+    "MATCHED_READERS",
+    "format_readers",
+    "parse_readers",
     "MATCH_GRACE_S",
     "Endpoint",
     "run_namespace",
@@ -81,9 +84,26 @@ FOREIGN_PUBLISHERS = "foreign_publishers"  # foreign writers seen on its inputs 
 FOREIGN_NAMES = "foreign_publisher_names"  # "topic <- /ns/node", "; "-separated
 REJECTED_MESSAGES = "rejected_messages"  # refused input messages so far
 OUTPUTS_MATCHED = "outputs_matched"  # "1": every reader the graph shows of its outputs matched
+MATCHED_READERS = "matched_readers"  # "topic=n;topic=n": readers matched per per-step output
 MATCH_GRACE_S = 2.0
 """The simulator's first step waits at most this long, the rest of the graph ready, for
 a peer whose outputs are not all matched (a reader of incompatible QoS never is)."""
+
+
+def format_readers(readers: dict[str, int] | None) -> str:
+    """``{topic: n}`` as the ``matched_readers`` value ``"topic=n;topic=n"`` (sorted)."""
+    return ";".join(f"{name}={n}" for name, n in sorted((readers or {}).items()))
+
+
+def parse_readers(text: str) -> dict[str, int]:
+    """The ``matched_readers`` value back as ``{topic: n}``; malformed items are dropped
+    (an older node, or another's identity, must not stop the start-up gate's reading)."""
+    readers = {}
+    for item in text.split(";"):
+        name, sep, count = item.partition("=")
+        if sep and name.startswith("/") and count.isdigit():
+            readers[name] = int(count)
+    return readers
 
 
 class Endpoint(NamedTuple):

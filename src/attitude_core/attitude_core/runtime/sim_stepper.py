@@ -68,13 +68,13 @@ __all__ = [
     "STARTUP_RESEND_FRACTION",
 ]
 
-SETTLE_S = 0.2
-"""Wall time the graph must stay connected before the first step, s. With the peers'
-``outputs_matched`` (their outputs matched by every reader their graph shows) it is
-what keeps the recorder from missing the planner's first targets when the planner's
-view of the graph lags (with 0.05 s, one run in about eight lost some in the tests);
-a link still matching otherwise costs a re-send of the first state, see
-:data:`STARTUP_RESEND_FRACTION`."""
+SETTLE_S = 0.05
+"""Wall time the graph must stay connected before the first step, s. The gate itself is
+sure: every loop node's per-step outputs have matched the readers the simulator expects
+of them, counted by their own writers (``Readiness.min_readers``; the simulator's own
+view of the graph can be ahead of a peer's); the settle only absorbs a graph seen
+connected for one poll. A link still matching otherwise costs a re-send of the first
+state, see :data:`STARTUP_RESEND_FRACTION`."""
 STARTUP_RESEND_FRACTION = 0.25
 """Re-send period of the state until the loop has answered once, as a fraction of
 ``resend_period_s`` (0.05 s by default)."""
