@@ -86,11 +86,10 @@ def diagnostics_events(node: Node, publisher: bool) -> Any:
     return SubscriptionEventCallbacks(incompatible_qos=on_incompatible)
 
 
-def _short(readers: Mapping[str, int], wanted: Mapping[str, int], own: bool = False) -> bool:
+def _short(readers: Mapping[str, int], wanted: Mapping[str, int]) -> bool:
     """Whether an output has fewer matched readers (``readers``: topic -> count) than
-    ``wanted``; a topic missing from ``readers`` counts none, except in the node's
-    ``own`` (a simulator publishes the state or the sensors, as the run has them)."""
-    return any(readers.get(name, 0) < n for name, n in wanted.items() if not own or name in readers)
+    ``wanted``; a topic missing from ``readers`` counts none."""
+    return any(readers.get(name, 0) < n for name, n in wanted.items())
 
 
 class RunGuard:
@@ -341,9 +340,11 @@ class RunGuard:
         }
         wanted = min_readers or {}
         own = self.matched_readers()
-        mine = wanted.get(self.spec.role, {})
+        # Of its own outputs, those it has (a simulator publishes the state or the
+        # sensors, as the run has them).
+        mine = {name: n for name, n in wanted.get(self.spec.role, {}).items() if name in own}
         unmatched = [] if self.outputs_matched() else [self.spec.role]
-        if not unmatched and _short(own, mine, own=True):
+        if not unmatched and _short(own, mine):
             unmatched.append(self.spec.role)
         for spec in node_graph.SENSING_LOOP:
             if spec is self.spec or spec.node_name not in present:

@@ -66,7 +66,7 @@ from mcap.stream_reader import breakup_chunk
 from mcap_ros2.decoder import DecoderFactory
 
 from attitude_core.runtime.recording import EXIT_DISK_FULL
-from attitude_core.yamlio import load_safe
+from attitude_core.yamlio import dump_safe, load_safe
 from attitude_tools.bag.layout import MCAP_MAGIC, METADATA_FILE, RESERVE_FILE
 from attitude_tools.bag.reader import BagMessage, bag_info, is_finished, mcap_files, stream_records
 from attitude_tools.bag.writer import (
@@ -329,7 +329,7 @@ def _finish_file(path: str, bag_dir: str) -> tuple[_Scan, int, dict[str, Any]]:
     counts = {scan.channels[c].topic: k for c, k in scan.counts.items() if c in scan.channels}
     info = bagfile_information(file_name, _topics(scan), counts, scan.start_ns, scan.end_ns, custom)
     builder = RecordBuilder()
-    serialized = yaml.safe_dump(info, sort_keys=False)
+    serialized = dump_safe(info)  # as the writer's close writes it
     Metadata(name=ROSBAG2_METADATA, metadata={"serialized_metadata": serialized}).write(builder)
     scan.metadata_indexes.append(
         MetadataIndex(offset=scan.keep, length=builder.count, name=ROSBAG2_METADATA)

@@ -32,6 +32,7 @@ import socket
 import tempfile
 import time
 from collections.abc import Mapping
+from pathlib import Path
 
 from attitude_core.runtime import discovery
 
@@ -68,10 +69,7 @@ def _stamp_release(domain_id: int) -> None:
     """Stamp ``domain_id`` as released now (best effort: a failure only loses its cool-down)."""
     try:
         os.makedirs(cooldown_dir(), mode=0o700, exist_ok=True)
-        path = os.path.join(cooldown_dir(), str(domain_id))
-        with open(path, "a", encoding="utf-8"):
-            pass
-        os.utime(path)
+        Path(cooldown_dir(), str(domain_id)).touch()
     except OSError:
         pass
 
