@@ -1,7 +1,9 @@
 """The offline loop's controller and plant (``gnc/loop_plant.py``): the compiled
 ``_kernels.LoopPlant`` against :class:`LoopPlantReference` to the bit, on random
-bodies, gains, bounds, fed states and targets (property tests)."""
+bodies, gains, bounds, fed states and targets (property tests), and its hold inside a
+band about a goal against single steps."""
 
+import math
 import os
 
 import numpy as np
@@ -12,7 +14,8 @@ from hypothesis import strategies as st
 from attitude_core.gnc import kernels
 from attitude_core.gnc.control import PdGains
 from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.loop_plant import LoopPlantReference, loop_plant
+from attitude_core.gnc.loop_plant import HOLD_GUARD, LoopPlantReference, loop_plant
+from attitude_core.gnc.mrp import angle_between_single, compose
 
 K = kernels.compiled
 pytestmark = pytest.mark.skipif(
@@ -98,3 +101,64 @@ def test_the_last_row_is_recorded_and_not_propagated():
         assert np.array_equal(ref.omega_b, arrays[1][k + 1])
     # a rest-to-rest pull towards the origin: the torque opposes the attitude error
     assert float(np.dot(arrays[2][0], (0.1, -0.2, 0.05))) < 0.0
+
+
+def _band_values(sigma: np.ndarray, omega: np.ndarray, goal) -> tuple[float, float]:
+    """The guidance's own attitude error (deg) and rate (rad/s) of a record row."""
+    return math.degrees(angle_between_single(sigma, goal)), math.hypot(*omega)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    vec,
+    st.integers(0, 2**32 - 1),
+    st.sampled_from([None, (0.05, 0.02, 0.08), (1e-3, 1e-3, 1e-3)]),
+    st.floats(0.05, 8.0),
+    st.floats(1e-4, 0.05),
+    st.sampled_from([0.1, 0.5]),
+)
+def test_a_hold_steps_while_inside_the_band_as_steps_one_at_a_time(
+    goal, seed, bound, band_deg, band_rate, dt
+):
+    """The compiled hold and the reference's stop at the same step, with the same
+    record as single steps fed the body's own state and the held target; every row
+    stepped is inside the band, the row it stops at is not (or is the end)."""
+    rng = np.random.default_rng(seed)
+    j = _inertia(rng)
+    gains = PdGains(rng.uniform(0.5, 8.0) * j, rng.uniform(0.5, 8.0) * j)
+    # a start near the goal, turning: it may leave the band, settle, or never enter it
+    kick = rng.normal(size=3) * np.radians(rng.uniform(0.0, 2.0 * band_deg)) / 4.0
+    sigma0 = compose(kick, goal)
+    omega0 = rng.normal(size=3) * rng.uniform(0.0, 2.0 * band_rate) / math.sqrt(3.0)
+    n = 60
+    target_sigma, target_omega = np.asarray(goal, dtype=float), np.zeros(3)
+    runs = []
+    for compiled in (True, False):
+        body = RigidBody(j, sigma0, omega0)
+        arrays = _records(n, body)
+        plant = (
+            loop_plant(gains, bound, body, dt, *arrays)
+            if compiled
+            else LoopPlantReference(gains, bound, body, dt, *arrays)
+        )
+        stop = plant.hold(0, n + 1, goal, target_sigma, target_omega, band_deg, band_rate)
+        runs.append((stop, arrays))
+    (stop, a), (stop_ref, b) = runs
+    assert stop == stop_ref
+    for x, y in zip(a, b, strict=True):
+        assert x.tobytes() == y.tobytes()
+    for k in range(stop):
+        e, r = _band_values(a[0][k], a[1][k], goal)
+        assert e <= band_deg and r <= band_rate
+    if stop <= n:
+        e, r = _band_values(a[0][stop], a[1][stop], goal)
+        assert e > band_deg * (1.0 - HOLD_GUARD) or r > band_rate * (1.0 - HOLD_GUARD)
+        assert np.all(np.isnan(a[2][stop:]))  # nothing written past the stop
+    # the same rows, a step at a time
+    body = RigidBody(j, sigma0, omega0)
+    c = _records(n, body)
+    single = LoopPlantReference(gains, bound, body, dt, *c)
+    for k in range(stop):
+        single.step(k, c[0][k], c[1][k], target_sigma, target_omega)
+    for x, y in zip(a, c, strict=True):
+        assert x.tobytes() == y.tobytes()

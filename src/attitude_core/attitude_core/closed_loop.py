@@ -4,7 +4,10 @@ The loop at step ``k`` (``t_k = k dt``): the guidance gives the target
 ``(sigma_t, omega_t)`` for the body state at ``t_k`` (eqs. 6-10, 12, closed on the
 measured state, :mod:`attitude_core.gnc.guidance`), the controller the torque ``u_k``
 from the body state at ``t_k`` (eq. 11), and the body is propagated to ``t_{k+1}`` with
-``u_k`` held (eqs. 3-4). With ``actuators.max_torque_nm`` the controller scales its
+``u_k`` held (eqs. 3-4). While the guidance holds the body on the goal
+(:meth:`Guidance.hold_band`) the steps whose states stay inside its arrival band are
+taken in one call with the held target (:meth:`LoopPlant.hold`): the same record as a
+step at a time. With ``actuators.max_torque_nm`` the controller scales its
 command into the bound and the plant clips per axis (:mod:`attitude_core.gnc.actuators`).
 The nodes run the same functions, one per process.
 
@@ -65,7 +68,8 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     step_s = np.empty(n + 1)
     onboard = None if scenario.sensors is None else OnboardEstimation(scenario.sensors, dt, n + 1)
     clock = time.perf_counter
-    for k in range(n + 1):
+    k = 0
+    while k <= n:
         # The time the planner node derives from the state stamp (k dt in integer ns),
         # to the last bit: the guidance's thresholds then decide alike in both.
         t_k = k * dt_ns / NS_PER_S
@@ -87,6 +91,19 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         plant.step(k, sigma_m, omega_m, target.sigma_t, target.omega_t)
         d_obs[k] = target.obstacle_distance_mrp
         status[k] = target.status.code
+        k += 1
+        band = guidance.hold_band() if onboard is None else None
+        if band is not None and k <= n:
+            # Held on the goal: the same target for every state inside the band, the
+            # steps taken in one call (the guidance judges the first state outside it).
+            c0 = clock()
+            stop = plant.hold(k, n + 1, guidance.goal, target.sigma_t, target.omega_t, *band)
+            if stop > k:
+                step_s[k:stop] = (clock() - c0) / (stop - k)
+                d_obs[k:stop] = target.obstacle_distance_mrp
+                status[k:stop] = target.status.code
+                guidance.held_to((stop - 1) * dt_ns / NS_PER_S)
+                k = stop
     assert guidance is not None  # made at the first step
     return RunResult(
         scenario,

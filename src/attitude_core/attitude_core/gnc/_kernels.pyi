@@ -44,6 +44,16 @@ class LoopPlant:
     def step(
         self, k: int, sigma_m: _Vec, omega_m: _Vec, target_sigma: _Vec, target_omega: _Vec
     ) -> None: ...
+    def hold(
+        self,
+        k: int,
+        stop: int,
+        goal: _Vec,
+        target_sigma: _Vec,
+        target_omega: _Vec,
+        band_deg: float,
+        band_rate: float,
+    ) -> int: ...
 
 def dense_interval_minima(
     kernel: ConeKernel,

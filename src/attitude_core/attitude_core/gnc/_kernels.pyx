@@ -38,6 +38,7 @@ from libc.stdlib cimport free, malloc
 cdef double _PI = 3.141592653589793
 cdef double _TWO_PI = 2.0 * 3.141592653589793
 cdef double _RAD_TO_DEG = 180.0 / 3.141592653589793
+cdef double HOLD_GUARD = 1e-9  # loop_plant.HOLD_GUARD
 
 
 cdef inline double _pymod(double a, double b) noexcept nogil:
@@ -336,14 +337,20 @@ cdef class LoopPlant:
         cdef double w[3]
         cdef double sr[3]
         cdef double wr[3]
-        cdef double u[3]
-        cdef double x
         cdef int i
         for i in range(3):
             s[i] = sigma_m[i]
             w[i] = omega_m[i]
             sr[i] = target_sigma[i]
             wr[i] = target_omega[i]
+        self._row(k, s, w, sr, wr)
+
+    cdef void _row(
+        self, Py_ssize_t k, const double* s, const double* w, const double* sr, const double* wr
+    ) noexcept:
+        cdef double u[3]
+        cdef double x
+        cdef int i
         _pd(self.g, self.d, s, w, sr, wr, self.b if self.bounded else NULL, u)
         if self.bounded:  # min(max(x, -b), b), as the plant's clip
             for i in range(3):
@@ -360,6 +367,49 @@ cdef class LoopPlant:
         if k + 1 < self.sigma.shape[0]:
             _rk4(self.j, self.ji, u, &self.sigma[k, 0], &self.omega[k, 0], self.dt,
                  &self.sigma[k + 1, 0], &self.omega[k + 1, 0])
+
+    def hold(
+        self, Py_ssize_t k, Py_ssize_t stop, goal, target_sigma, target_omega,
+        double band_deg, double band_rate,
+    ):
+        """Steps ``k, k + 1, ...`` (before ``stop``) fed the body's own state and one
+        target, while the body is inside the band (``loop_plant.LoopPlantReference.hold``);
+        returns the first step not taken."""
+        cdef double sr[3]
+        cdef double wr[3]
+        cdef double gl[3]
+        cdef double e_lim = band_deg * (1.0 - HOLD_GUARD)
+        cdef double r_lim = band_rate * (1.0 - HOLD_GUARD)
+        cdef double a1, a2, a3, b1, b2, b3, sa, sb, a0, b0, ww, v1, v2, v3, e, r
+        cdef double* s
+        cdef double* w
+        cdef int i
+        for i in range(3):
+            sr[i] = target_sigma[i]
+            wr[i] = target_omega[i]
+            gl[i] = goal[i]
+        while k < stop:
+            s = &self.sigma[k, 0]
+            w = &self.omega[k, 0]
+            # angle_between(s, goal), in degrees (the guidance's attitude error)
+            a1, a2, a3 = s[0], s[1], s[2]
+            b1, b2, b3 = gl[0], gl[1], gl[2]
+            sa = a1 * a1 + a2 * a2 + a3 * a3
+            sb = b1 * b1 + b2 * b2 + b3 * b3
+            a0, b0 = 1.0 - sa, 1.0 - sb
+            a1, a2, a3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
+            b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
+            ww = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
+            v1 = b0 * a1 - a0 * b1 - (a2 * b3 - a3 * b2)
+            v2 = b0 * a2 - a0 * b2 - (a3 * b1 - a1 * b3)
+            v3 = b0 * a3 - a0 * b3 - (a1 * b2 - a2 * b1)
+            e = 2.0 * atan2(sqrt(v1 * v1 + v2 * v2 + v3 * v3), fabs(ww)) * _RAD_TO_DEG
+            r = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+            if not (e <= e_lim and r <= r_lim):  # NaN leaves too
+                break
+            self._row(k, s, w, sr, wr)
+            k += 1
+        return k
 
 
 cdef double _min_margin(

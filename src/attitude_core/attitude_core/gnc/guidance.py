@@ -510,6 +510,33 @@ class Guidance:
         out.status = self.status
         return GuidanceOutput(out, e_track, e_goal, factor, self.derating)
 
+    def hold_band(self) -> tuple[float, float] | None:
+        """While the guidance holds the body on the goal (``arrived``, the target on the
+        goal) and nothing but the body can change its answer (a static sky, no route
+        pending, no decision window, the estimate settled), the band about the goal
+        (attitude error, deg, and rate, rad/s: twice the arrival tolerances) inside
+        which every state gets the last target again and leaves the guidance as it was
+        but for :meth:`held_to`; None otherwise. The offline loop steps such states in
+        one compiled call (:meth:`attitude_core.gnc.loop_plant.LoopPlant.hold`)."""
+        if (
+            self.status != PlannerStatus.ARRIVED
+            or self.planner.status != PlannerStatus.ARRIVED
+            or self.sky_guide is not None
+            or self._pending is not None
+            or self.knowledge.decision_window_s > 0.0
+            or self.t_prev is None
+            or self.t_prev < self.knowledge.settle_s
+        ):
+            return None
+        return 2.0 * self.attitude_tol_deg, 2.0 * self.rate_tol_rad_s
+
+    def held_to(self, t_s: float) -> None:
+        """The states up to ``t_s`` (s) got the last target again, inside
+        :meth:`hold_band`'s band."""
+        if self.t_prev is not None and float(t_s) < self.t_prev:
+            raise ValueError(f"state time {t_s} s is before the previous {self.t_prev} s")
+        self.t_prev = float(t_s)
+
     # ------------------------------------------------------------------------------
 
     def _time_scaled(self, out: PlannerOutput, dt: float) -> npt.NDArray[np.float64]:

@@ -6,6 +6,14 @@ bound) from the state the loop is fed and the target, the plant's per-axis clip,
 the body (eqs. 3-4, with the shadow switch of eq. 2) from row ``k`` of ``sigma`` and
 ``omega`` to row ``k + 1``. Row 0 holds the initial state.
 
+:meth:`hold` takes those steps one after the other, fed the body's own state (perfect
+knowledge) and one target, while the body stays inside a band about a goal (attitude
+error, deg, and rate norm, rad/s): the offline loop's steps while the guidance holds the
+body on the goal and would answer every state with the same target until the body leaves
+its arrival band (:meth:`attitude_core.gnc.guidance.Guidance.hold_band`). It stops
+:data:`HOLD_GUARD` (relative) short of the band's edges, so the guidance itself judges
+every state near them.
+
 :class:`LoopPlantReference` composes the per-step functions
 (:func:`attitude_core.gnc.control.commanded_torque`,
 :func:`attitude_core.gnc.actuators.clip_to_bound`,
@@ -17,6 +25,7 @@ the bit, ``tests/core/test_loop_plant.py``). :func:`loop_plant` gives the one
 
 from __future__ import annotations
 
+import math
 from typing import Protocol
 
 import numpy as np
@@ -26,9 +35,13 @@ from attitude_core.gnc import kernels
 from attitude_core.gnc.actuators import clip_to_bound
 from attitude_core.gnc.control import PdGains, commanded_torque
 from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import Vec3Like
+from attitude_core.gnc.mrp import Vec3Like, angle_between_single_reference
 
-__all__ = ["LoopPlant", "LoopPlantReference", "loop_plant"]
+__all__ = ["HOLD_GUARD", "LoopPlant", "LoopPlantReference", "loop_plant"]
+
+HOLD_GUARD = 1e-9
+"""A hold stops where the body's error or rate is within this share of the band's edge:
+the guidance's own comparison (``math.hypot`` for the rate) decides there."""
 
 _Rows = npt.NDArray[np.float64]
 
@@ -42,6 +55,17 @@ class LoopPlant(Protocol):
         target_sigma: Vec3Like,
         target_omega: Vec3Like,
     ) -> None: ...
+
+    def hold(
+        self,
+        k: int,
+        stop: int,
+        goal: Vec3Like,
+        target_sigma: Vec3Like,
+        target_omega: Vec3Like,
+        band_deg: float,
+        band_rate: float,
+    ) -> int: ...
 
 
 class LoopPlantReference:
@@ -80,6 +104,32 @@ class LoopPlantReference:
             body.sigma_bn, body.omega_b = self.sigma[k].copy(), self.omega[k].copy()
             body.step(u, self.dt)
             self.sigma[k + 1], self.omega[k + 1] = body.sigma_bn, body.omega_b
+
+    def hold(
+        self,
+        k: int,
+        stop: int,
+        goal: Vec3Like,
+        target_sigma: Vec3Like,
+        target_omega: Vec3Like,
+        band_deg: float,
+        band_rate: float,
+    ) -> int:
+        """Steps ``k, k + 1, ...`` (before ``stop``) fed the body's own state and one
+        target while the body is inside the band (the module docstring); returns the
+        first step not taken."""
+        e_lim = band_deg * (1.0 - HOLD_GUARD)
+        r_lim = band_rate * (1.0 - HOLD_GUARD)
+        while k < stop:
+            s, w = self.sigma[k], self.omega[k]
+            e = angle_between_single_reference(s, goal) * (180.0 / math.pi)
+            w1, w2, w3 = float(w[0]), float(w[1]), float(w[2])
+            r = math.sqrt(w1 * w1 + w2 * w2 + w3 * w3)
+            if not (e <= e_lim and r <= r_lim):  # NaN leaves too
+                break
+            self.step(k, s, w, target_sigma, target_omega)
+            k += 1
+        return k
 
 
 def loop_plant(
