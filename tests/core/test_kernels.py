@@ -3,6 +3,7 @@ on the paper's cases and on random states (property tests), and the whole closed
 of Case 1 and Case 2 run with each (``ATTITUDE_KERNELS``)."""
 
 import json
+import math
 import os
 import subprocess
 import sys
@@ -147,6 +148,68 @@ def test_margins_and_rim_search_match_the_reference(index):
     np.testing.assert_allclose(
         [g.min_margin_deg_single(s) for s in sig], g.min_margin_deg(sig), atol=1e-9
     )
+
+
+def _full_scan(circles: np.ndarray, sigma) -> tuple[int, float]:
+    """The nearest rim circle by a scan of every circle, in the compiled squared
+    distance's operations and order (the first of equal distances)."""
+    sx, sy, sz = (float(x) for x in sigma)
+    s2 = sx * sx + sy * sy + sz * sz
+    best, best_i = math.inf, 0
+    for i, c in enumerate(circles.tolist()):
+        dd = -2.0 * (c[0] * sx + c[1] * sy + c[2] * sz) + c[6]
+        dd = dd + s2
+        h = (c[3] * sx + c[4] * sy + c[5] * sz) - c[7]
+        h = dd - h * h
+        h = math.sqrt(h if h >= 0.0 else 0.0) * c[9]
+        dd = (dd + c[8]) - h
+        d2 = dd if dd > 0.0 else 0.0
+        if d2 < best:
+            best, best_i = d2, i
+    return best_i, best
+
+
+@pytest.mark.parametrize("index", range(0, len(GEOMETRIES), 3))
+def test_the_pruned_rim_search_is_the_full_scan_to_the_bit(index):
+    """The rim search skips rims and circles on an angle bound (``ConeKernel._nearest``):
+    its answer is the scan of every circle's, index and distance, at random attitudes,
+    on and near the rims (where the bound is tightest) and at the origin."""
+    g = GEOMETRIES[index]
+    g.rim_circles  # noqa: B018
+    circles = np.column_stack([g._centres, g._normals, g._c_dot_c, g._c_dot_n, g._r2, g._two_radii])
+    rng = np.random.default_rng(100 + index)
+    rims = g._centres[rng.integers(0, len(g._centres), 40)]  # circle centres: far inside
+    pick = rng.integers(0, len(g._centres), 60)  # points on circles, and just off them
+    normal = g._normals[pick]
+    radial = np.cross(normal, rng.normal(size=(60, 3)))
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    on = g._centres[pick] + g._radii[pick, None] * radial
+    on = on[np.linalg.norm(on, axis=1) < 2.0]
+    off = on + rng.normal(scale=1e-3, size=on.shape)
+    points = np.vstack([rng.uniform(-1.0, 1.0, (100, 3)), rims, on, off, np.zeros((1, 3))])
+    for sigma in points:
+        idx, d2, *_ = g._kernel.closest_rim(sigma)
+        assert (idx, d2) == _full_scan(circles, sigma)
+
+
+def test_the_compiled_obstacle_query_is_the_reference():
+    """The closest obstacle from the compiled rim search, parabola and closest point
+    against ``closest_obstacle_single_reference`` (the rim distances differ from NumPy's
+    matrix product in the last bits only)."""
+    for g in GEOMETRIES[::2]:
+        rng = np.random.default_rng(len(g._centres) if g._rims_built else 0)
+        for sigma in rng.uniform(-1.0, 1.0, (100, 3)):
+            d, direction, point, pair = g.closest_obstacle_single(sigma)
+            rd, rdirection, rpoint, rpair = g.closest_obstacle_single_reference(sigma)
+            if pair != rpair:  # a tie to rounding between two rims
+                assert abs(d - rd) <= 1e-9
+                continue
+            np.testing.assert_allclose(d, rd, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(direction, rdirection, rtol=0, atol=1e-6)
+            np.testing.assert_allclose(point, rpoint, rtol=0, atol=1e-9)
+            query = g.closest_obstacle(sigma)
+            assert query.distance == d and query.constraint == pair
+            assert tuple(query.direction) == direction
 
 
 _LOOP = """

@@ -35,6 +35,8 @@ the screen keeps with the reference itself.
 from libc.math cimport acos, atan2, cos, fabs, fmod, pow, sin, sqrt, copysign, INFINITY
 from libc.stdlib cimport free, malloc
 
+import numpy as np
+
 cdef double _PI = 3.141592653589793
 cdef double _TWO_PI = 2.0 * 3.141592653589793
 cdef double _RAD_TO_DEG = 180.0 / 3.141592653589793
@@ -489,6 +491,9 @@ cdef class ConeKernel:
     cdef const double[:, ::1] keep_in
     cdef const double[:, ::1] circles
     cdef Py_ssize_t samples
+    cdef double[:, ::1] rims  # per rim: body vector, inertial direction, angle, d2 slack
+    cdef const double[:, ::1] rim_dirs  # per circle: its rim direction (inertial)
+    cdef double[::1] rim_bound  # per rim: the current query's lower bound, squared
 
     def __init__(
         self,
@@ -496,31 +501,63 @@ cdef class ConeKernel:
         const double[:, ::1] keep_in,
         const double[:, ::1] circles,
         Py_ssize_t samples,
+        const double[:, ::1] rims=None,
+        const double[:, ::1] rim_dirs=None,
     ):
         if keep_out.shape[1] != 7 or keep_in.shape[1] != 7 or circles.shape[1] != 10:
             raise ValueError("ConeKernel: rows of 7, 7 and 10 values expected")
         if samples < 1 or circles.shape[0] % samples != 0:
             raise ValueError("ConeKernel: circles must be whole rims of `samples` each")
+        cdef Py_ssize_t n_rims = circles.shape[0] // samples, p, i
+        if n_rims > 0 and (rims is None or rims.shape[0] != n_rims or rims.shape[1] != 7):
+            raise ValueError("ConeKernel: one row of 7 values per rim expected")
+        if n_rims > 0 and (
+            rim_dirs is None or rim_dirs.shape[0] != circles.shape[0] or rim_dirs.shape[1] != 3
+        ):
+            raise ValueError("ConeKernel: one rim direction per circle expected")
+        self.rim_dirs = rim_dirs if n_rims > 0 else np.zeros((0, 3))
         self.keep_out = keep_out
         self.keep_in = keep_in
         self.circles = circles
         self.samples = samples
+        # The rims' rows and the slack of a computed squared distance: 1e-12 of the
+        # largest |centre| + radius (+1) squared of the rim's circles (its rounding is a
+        # few ulps of those terms).
+        self.rims = np.empty((n_rims, 8))
+        self.rim_bound = np.empty(n_rims)
+        cdef double size, big
+        for p in range(n_rims):
+            for i in range(7):
+                self.rims[p, i] = rims[p, i]
+            big = 0.0
+            for i in range(p * samples, (p + 1) * samples):
+                size = sqrt(circles[i, 6]) + 0.5 * circles[i, 9] + 1.0
+                if not (size <= big):  # NaN and infinity too: no pruning of that rim
+                    big = size
+            self.rims[p, 7] = 1e-12 * big * big
 
     def min_margin_deg(self, sigma_bn):
         """Smallest exact margin at ``sigma_bn`` over every constraint, degrees
         (``ConeGeometry.min_margin_deg_single``)."""
+        return self._margin(sigma_bn[0], sigma_bn[1], sigma_bn[2])
+
+    cdef double _margin(self, double s1, double s2, double s3) noexcept:
         cdef double r[9]
-        _dcm_rows(sigma_bn[0], sigma_bn[1], sigma_bn[2], r)
+        _dcm_rows(s1, s2, s3, r)
         return _min_margin(self.keep_out, self.keep_in, r)
 
     def arc_min_margin_deg(self, sigma_a, sigma_b):
         """Smallest exact margin along the short eigenaxis rotation from ``sigma_a`` to
         ``sigma_b``, closed form (``ConeGeometry.arc_min_margin_deg_single``), degrees."""
+        return self._arc(sigma_a[0], sigma_a[1], sigma_a[2], sigma_b[0], sigma_b[1], sigma_b[2])
+
+    cdef double _arc(
+        self, double a1, double a2, double a3, double b1, double b2, double b3
+    ) noexcept:
         cdef const double[:, ::1] keep_out = self.keep_out
         cdef const double[:, ::1] keep_in = self.keep_in
-        cdef double a1 = sigma_a[0], a2 = sigma_a[1], a3 = sigma_a[2]
         cdef double q[4]
-        _relative_euler(sigma_b[0], sigma_b[1], sigma_b[2], a1, a2, a3, q)
+        _relative_euler(b1, b2, b3, a1, a2, a3, q)
         if q[0] < 0.0:
             q[0], q[1], q[2], q[3] = -q[0], -q[1], -q[2], -q[3]
         cdef double n = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
@@ -559,30 +596,187 @@ cdef class ConeKernel:
                 best = m
         return best
 
+    cdef Py_ssize_t _nearest(self, double sx, double sy, double sz) noexcept:
+        """Index of the rim circle nearest ``sigma``: the first of equal squared
+        distances, as the argmin over every circle (``rim_distances_sq``).
+
+        Rims that cannot hold a circle as near as one already measured are skipped: a
+        rotation by ``theta`` turns a body vector by at most ``theta``, and a straight
+        MRP segment of length ``l`` spans a rotation of at most ``4 l`` (``|omega| =
+        4 |sigma_dot| / (1 + |sigma|^2)``, eq. 12), so every circle of a rim of angle
+        ``alpha`` is at least ``|angle(C^T s, c) - alpha| / 4`` from ``sigma`` (0.999 of
+        it, less 1e-7 rad, is taken; a squared distance counts as nearer only beyond the
+        rim's rounding slack). Within a rim, a circle is skipped the same way on the
+        angle from the body vector's direction now to the circle's rim direction (every
+        attitude of the circle points the body vector there). The circle whose rim
+        direction is nearest, on the rim with the least bound, is measured first; the
+        others then in order, so the answer is the full scan's to the bit."""
+        cdef const double[:, ::1] circles = self.circles
+        cdef const double[:, ::1] dirs = self.rim_dirs
+        cdef double[:, ::1] rims = self.rims
+        cdef double[::1] bound = self.rim_bound
+        cdef Py_ssize_t samples = self.samples, n_rims = rims.shape[0], p, i, first = 0
+        cdef Py_ssize_t best_i = 0, lo, near = 0, k
+        cdef double s2 = sx * sx + sy * sy + sz * sz
+        cdef double r[9]
+        cdef double bx, by, bz, m, lb, least = INFINITY, best = INFINITY, d2, ub, c, top
+        cdef double theta, cos_min
+        _dcm_rows(sx, sy, sz, r)
+        for p in range(n_rims):
+            bx = rims[p, 0] * r[0] + rims[p, 1] * r[3] + rims[p, 2] * r[6]
+            by = rims[p, 0] * r[1] + rims[p, 1] * r[4] + rims[p, 2] * r[7]
+            bz = rims[p, 0] * r[2] + rims[p, 1] * r[5] + rims[p, 2] * r[8]
+            m = fabs(acos(_clip1(bx * rims[p, 3] + by * rims[p, 4] + bz * rims[p, 5])) - rims[p, 6])
+            lb = 0.999 * 0.25 * (m - 1e-7)
+            lb = lb * lb if lb > 0.0 else 0.0
+            if not (lb >= 0.0):  # NaN: never skip
+                lb = 0.0
+            bound[p] = lb
+            if lb < least:
+                least = lb
+                first = p
+        # An upper bound: the circles about the nearest rim direction of the least-bound rim.
+        bx = rims[first, 0] * r[0] + rims[first, 1] * r[3] + rims[first, 2] * r[6]
+        by = rims[first, 0] * r[1] + rims[first, 1] * r[4] + rims[first, 2] * r[7]
+        bz = rims[first, 0] * r[2] + rims[first, 1] * r[5] + rims[first, 2] * r[8]
+        lo = first * samples
+        top = -INFINITY
+        for i in range(lo, lo + samples):
+            c = bx * dirs[i, 0] + by * dirs[i, 1] + bz * dirs[i, 2]
+            if c > top:
+                top = c
+                near = i
+        ub = INFINITY
+        for k in range(-1, 2):
+            d2 = _circle_d2(circles, lo + (near - lo + k + samples) % samples, sx, sy, sz, s2)
+            if d2 < ub:
+                ub = d2
+        if not (ub < INFINITY):  # NaN distances: the full scan decides
+            ub = INFINITY
+        for p in range(n_rims):
+            if bound[p] > ub + rims[p, 7]:
+                continue
+            lo = p * samples
+            # The circles whose rim direction is farther than theta: beyond ub too.
+            theta = 1e-7 + 4.0 * sqrt(ub + rims[p, 7]) / 0.999
+            if theta < 3.0:
+                cos_min = cos(theta) - 1e-12
+                bx = rims[p, 0] * r[0] + rims[p, 1] * r[3] + rims[p, 2] * r[6]
+                by = rims[p, 0] * r[1] + rims[p, 1] * r[4] + rims[p, 2] * r[7]
+                bz = rims[p, 0] * r[2] + rims[p, 1] * r[5] + rims[p, 2] * r[8]
+                for i in range(lo, lo + samples):
+                    if bx * dirs[i, 0] + by * dirs[i, 1] + bz * dirs[i, 2] < cos_min:
+                        continue
+                    d2 = _circle_d2(circles, i, sx, sy, sz, s2)
+                    if d2 < best:  # the first of equal distances, as argmin
+                        best = d2
+                        best_i = i
+            else:
+                for i in range(lo, lo + samples):
+                    d2 = _circle_d2(circles, i, sx, sy, sz, s2)
+                    if d2 < best:
+                        best = d2
+                        best_i = i
+        return best_i
+
     def closest_rim(self, sigma):
         """The rim circle nearest ``sigma`` and its two neighbours on the same rim:
         ``(index, d2, d2_before, d2_after, index_before, index_after)``, ``d2`` the
         squared MRP distances (``ConeGeometry.rim_distances_sq`` and its argmin)."""
         cdef const double[:, ::1] circles = self.circles
-        cdef Py_ssize_t samples = self.samples
         cdef double sx = sigma[0], sy = sigma[1], sz = sigma[2]
         cdef double s2 = sx * sx + sy * sy + sz * sz
-        cdef Py_ssize_t i, best_i = 0
-        cdef double best = INFINITY
-        cdef double d2
-        for i in range(circles.shape[0]):
-            d2 = _circle_d2(circles, i, sx, sy, sz, s2)
-            if d2 < best:  # the first of equal distances, as argmin
-                best = d2
-                best_i = i
+        cdef Py_ssize_t samples = self.samples
+        cdef Py_ssize_t best_i = self._nearest(sx, sy, sz)
         cdef Py_ssize_t base = (best_i // samples) * samples
         cdef Py_ssize_t j = best_i - base
         cdef Py_ssize_t jm = base + (j - 1 + samples) % samples
         cdef Py_ssize_t jp = base + (j + 1) % samples
         return (
-            best_i, best, _circle_d2(circles, jm, sx, sy, sz, s2),
+            best_i, _circle_d2(circles, best_i, sx, sy, sz, s2),
+            _circle_d2(circles, jm, sx, sy, sz, s2),
             _circle_d2(circles, jp, sx, sy, sz, s2), jm, jp,
         )
+
+    cdef void _on_circle(
+        self, Py_ssize_t i, double sx, double sy, double sz, double* out
+    ) noexcept:
+        """Closest point to ``sigma`` on circle ``i`` (``ConeGeometry._closest_on_circle``)."""
+        cdef const double[:, ::1] c = self.circles
+        cdef double cx = c[i, 0], cy = c[i, 1], cz = c[i, 2]
+        cdef double nx = c[i, 3], ny = c[i, 4], nz = c[i, 5]
+        cdef double radius = 0.5 * c[i, 9]
+        cdef double dx = sx - cx, dy = sy - cy, dz = sz - cz
+        cdef double h = dx * nx + dy * ny + dz * nz
+        cdef double rx = dx - h * nx, ry = dy - h * ny, rz = dz - h * nz
+        cdef double rn = sqrt(rx * rx + ry * ry + rz * rz)
+        if rn < 1e-15:  # on the circle's axis: every point is equally close
+            rx, ry, rz = ny, -nx, 0.0
+            if fabs(nz) > 0.9:
+                rx, ry, rz = 0.0, nz, -ny
+            rn = sqrt(rx * rx + ry * ry + rz * rz)
+        cdef double f = radius / rn
+        out[0] = cx + f * rx
+        out[1] = cy + f * ry
+        out[2] = cz + f * rz
+
+    def closest_obstacle(self, sigma, double inflation_deg):
+        """``(distance, (direction), (closest point), constraint)`` of the closest
+        inflated region (``ConeGeometry.closest_obstacle_single_reference``, on this
+        kernel's rim search)."""
+        cdef double out[7]
+        cdef Py_ssize_t pair = self._closest(sigma[0], sigma[1], sigma[2], inflation_deg, out)
+        return out[0], (out[1], out[2], out[3]), (out[4], out[5], out[6]), pair
+
+    cdef Py_ssize_t _closest(
+        self, double sx, double sy, double sz, double inflation_deg, double* out
+    ) noexcept:
+        """Into ``out``: distance, direction (3, zeros when it has none), closest point
+        (3); returns the constraint."""
+        cdef const double[:, ::1] circles = self.circles
+        cdef double s2 = sx * sx + sy * sy + sz * sz
+        cdef Py_ssize_t samples = self.samples
+        cdef Py_ssize_t idx = self._nearest(sx, sy, sz)
+        cdef Py_ssize_t base = (idx // samples) * samples
+        cdef Py_ssize_t j = idx - base
+        cdef Py_ssize_t jm = base + (j - 1 + samples) % samples
+        cdef Py_ssize_t jp = base + (j + 1) % samples
+        cdef double f0 = _circle_d2(circles, idx, sx, sy, sz, s2)
+        cdef double fm = _circle_d2(circles, jm, sx, sy, sz, s2)
+        cdef double fp = _circle_d2(circles, jp, sx, sy, sz, s2)
+        # Parabola through (-1, fm), (0, f0), (1, fp): vertex offset t in [-1/2, 1/2].
+        cdef double curv = fm - 2.0 * f0 + fp
+        cdef double t = 0.0, best = f0, x
+        if curv > 0.0:
+            t = 0.5 * (fm - fp) / curv
+            if -0.5 > t:  # min(max(t, -0.5), 0.5), as Python's
+                t = -0.5
+            if 0.5 < t:
+                t = 0.5
+            x = f0 - 0.25 * (fm - fp) * t
+            best = 0.0 if 0.0 > x else x
+        cdef double p0[3]
+        cdef double pn[3]
+        self._on_circle(idx, sx, sy, sz, p0)
+        self._on_circle(jp if t >= 0.0 else jm, sx, sy, sz, pn)
+        cdef double a = fabs(t)
+        cdef double px = p0[0] + a * (pn[0] - p0[0])
+        cdef double py = p0[1] + a * (pn[1] - p0[1])
+        cdef double pz = p0[2] + a * (pn[2] - p0[2])
+        cdef double vx = px - sx, vy = py - sy, vz = pz - sz
+        cdef double norm = sqrt(vx * vx + vy * vy + vz * vz)
+        cdef double dist = sqrt(best)
+        cdef double r[9]
+        _dcm_rows(sx, sy, sz, r)
+        if _min_margin(self.keep_out, self.keep_in, r) < inflation_deg:
+            dist, norm = -dist, -norm
+        out[0] = dist
+        if norm != 0.0:
+            out[1], out[2], out[3] = vx / norm, vy / norm, vz / norm
+        else:
+            out[1], out[2], out[3] = 0.0, 0.0, 0.0
+        out[4], out[5], out[6] = px, py, pz
+        return idx // samples
 
 
 cdef inline void _quat_rows(

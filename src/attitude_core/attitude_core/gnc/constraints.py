@@ -326,6 +326,8 @@ class ConeGeometry:
             np.ascontiguousarray(keep_in, dtype=float),
             np.ascontiguousarray(circles, dtype=float),
             self.samples,
+            np.ascontiguousarray(self._rim_rows if rims else np.zeros((0, 7)), dtype=float),
+            np.ascontiguousarray(self._rim_dirs if rims else np.zeros((0, 3)), dtype=float),
         )
 
     # --- exact margins --------------------------------------------------------
@@ -585,6 +587,11 @@ class ConeGeometry:
                 )
             )
         ]
+        # Each rim's body vector, inertial direction and angle (rad), in the circles'
+        # order: the compiled rim search bounds a rim's distance with them.
+        self._rim_rows = np.array(
+            [[*(s / np.linalg.norm(s)), *(c / np.linalg.norm(c)), beta] for _, s, c, beta in cones]
+        ).reshape(-1, 7)
         groups: list[tuple[int, _Floats, list[_Floats], list[_Floats]]] = []
         for key, s, c, beta in cones:
             e1 = _unit_perpendicular(c)
@@ -606,6 +613,10 @@ class ConeGeometry:
             _fiber_circles(s, np.concatenate(rims), np.concatenate(dots))
             for _, s, rims, dots in groups
         ]
+        # Each circle's rim direction (inertial), unit: where its attitudes point the body
+        # vector (the compiled rim search bounds a circle's distance with it).
+        dirs = np.concatenate([np.concatenate(rims) for _, _, rims, _ in groups])
+        self._rim_dirs = dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
         self._centres = np.concatenate([cc for cc, _, _ in circles])  # (P*k, 3)
         self._normals = np.concatenate([nn for _, nn, _ in circles])
         self._radii = np.concatenate([rr for _, _, rr in circles])
@@ -654,12 +665,26 @@ class ConeGeometry:
         Accurate to second order in the rim spacing; the sign is negative when
         ``sigma`` is inside an inflated region.
         """
+        dist, direction, point, pair = self.closest_obstacle_single(sigma)
+        return ObstacleQuery(dist, np.array(direction), np.array(point), pair)
+
+    def closest_obstacle_single(self, sigma: Vec3Like) -> tuple[float, Vec3, Vec3, int]:
+        """:meth:`closest_obstacle` as ``(distance, direction, closest point,
+        constraint)`` in plain floats (every planner step: compiled when the kernels are,
+        :meth:`closest_obstacle_single_reference` otherwise)."""
         if not self._rims_built:  # tested here: this is every planner step
             self._ensure_rims()
         if self._kernel is not None:
-            idx, f0, fm, fp, jm, jp = self._kernel.closest_rim(sigma)
-        else:
-            idx, f0, fm, fp, jm, jp = self.closest_rim_reference(sigma)
+            out: tuple[float, Vec3, Vec3, int] = self._kernel.closest_obstacle(
+                sigma, self.inflation_deg
+            )
+            return out
+        return self.closest_obstacle_single_reference(sigma)
+
+    def closest_obstacle_single_reference(self, sigma: Vec3Like) -> tuple[float, Vec3, Vec3, int]:
+        """:meth:`closest_obstacle_single` in Python (the compiled query's reference)."""
+        self._ensure_rims()
+        idx, f0, fm, fp, jm, jp = self.closest_rim_reference(sigma)
         pair = idx // self.samples
         # Parabola through (-1, fm), (0, f0), (1, fp): vertex offset t in [-1/2, 1/2].
         curv = fm - 2.0 * f0 + fp
@@ -680,8 +705,8 @@ class ConeGeometry:
         dist = math.sqrt(best)
         if self.min_margin_deg_single(sigma) < self.inflation_deg:
             dist, norm = -dist, -norm
-        direction = np.array([vx / norm, vy / norm, vz / norm]) if norm != 0.0 else np.zeros(3)
-        return ObstacleQuery(dist, direction, np.array([px, py, pz]), pair)
+        direction = (vx / norm, vy / norm, vz / norm) if norm != 0.0 else (0.0, 0.0, 0.0)
+        return dist, direction, (px, py, pz), pair
 
     def closest_rim_reference(self, sigma: Vec3Like) -> tuple[int, float, float, float, int, int]:
         """The rim circle nearest ``sigma`` and its neighbours on the same rim,

@@ -384,10 +384,8 @@ class FepfPlanner:
             )
 
         a_hat = (ex / d_goal, ey / d_goal, ez / d_goal) if d_goal > 0.0 else (0.0, 0.0, 0.0)
-        query = self.geometry.closest_obstacle(self.sigma_t)
-        d_obs = query.distance
+        d_obs, c_hat, _, _ = self.geometry.closest_obstacle_single(self.sigma_t)
         self.last_obstacle_distance = d_obs
-        c_hat = (float(query.direction[0]), float(query.direction[1]), float(query.direction[2]))
         self.last_obstacle_direction = c_hat
         if self.relative:
             c_hat = _to_target_frame(self.sigma_t, c_hat, scale)
