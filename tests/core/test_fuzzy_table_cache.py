@@ -20,9 +20,15 @@ def cache(tmp_path, monkeypatch):
     """An empty cache directory of this test's own; the per-process cache cleared."""
     where = tmp_path / "fis_tables"
     monkeypatch.setenv(table_cache.ENV, str(where))
-    table_module._table_from_json.cache_clear()
+    _forget()
     yield where
+    _forget()
+
+
+def _forget():
+    """Clear the per-process caches (by definition and by FIS object)."""
     table_module._table_from_json.cache_clear()
+    table_module._table_of.cache_clear()
 
 
 def _no_build(monkeypatch):
@@ -43,7 +49,7 @@ def test_a_table_read_back_is_the_built_one_bit_for_bit(cache, monkeypatch, name
     fis = load_fis(name)
     built = lookup_table(fis)  # built and stored
     assert len(list(cache.glob("*.npz"))) == 1
-    table_module._table_from_json.cache_clear()
+    _forget()
     _no_build(monkeypatch)
     read = lookup_table(fis)  # a new process would do this: read, not build
     assert read is not built
@@ -86,10 +92,10 @@ def test_a_bad_entry_is_rebuilt_and_replaced(cache, damage):
             entry, values=values, error=good.max_abs_error_estimate, tol=good.tol,
             axis0=axes[0], axis1=axes[1],
         )  # fmt: skip
-    table_module._table_from_json.cache_clear()
+    _forget()
     again = lookup_table(fis)
     np.testing.assert_array_equal(again.values, good.values)
-    table_module._table_from_json.cache_clear()
+    _forget()
     assert table_cache.load(entry.stem, 2) is not None  # the rebuilt entry was written
     for x in _inputs(good, 200):
         assert again(*x) == good(*x)
@@ -114,13 +120,13 @@ def test_the_key_follows_the_definition_and_the_build(cache):
 def test_off_writes_nothing(tmp_path, monkeypatch):
     monkeypatch.setenv(table_cache.ENV, "off")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
-    table_module._table_from_json.cache_clear()
+    _forget()
     try:
         assert table_cache.cache_dir() is None
         lookup_table(load_fis("fis_attractive.yaml"))
         assert list(tmp_path.rglob("*")) == []
     finally:
-        table_module._table_from_json.cache_clear()
+        _forget()
 
 
 def test_the_default_location_follows_xdg(tmp_path, monkeypatch):
@@ -133,11 +139,11 @@ def test_an_unwritable_cache_is_skipped(tmp_path, monkeypatch):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a directory")
     monkeypatch.setenv(table_cache.ENV, str(blocker / "fis_tables"))  # mkdir fails
-    table_module._table_from_json.cache_clear()
+    _forget()
     try:
         fis = load_fis("fis_repulsive.yaml")
         table = lookup_table(fis)
         reference = fis.table()
         np.testing.assert_array_equal(table.values, reference.values)
     finally:
-        table_module._table_from_json.cache_clear()
+        _forget()

@@ -81,3 +81,22 @@ class ConeKernel:
     def closest_obstacle(
         self, sigma: _Vec, inflation_deg: float
     ) -> tuple[float, tuple[float, float, float], tuple[float, float, float], int]: ...
+
+class FisKernel:
+    table: object
+    def __init__(self, table: object) -> None: ...
+
+class FepfCore:
+    def __init__(
+        self,
+        planner: object,
+        output_cls: type,
+        statuses: tuple[object, object, object],
+        rim_floor: float,
+        sight_tol: float,
+    ) -> None: ...
+    def propose(self, planner: object, dt_since: float, dt_ahead: float) -> object: ...
+    def hold_rate(
+        self, planner: object, rate: _Vec, dt_ahead: float
+    ) -> tuple[float, float, float]: ...
+    def advance(self, planner: object, dt: float) -> None: ...

@@ -1052,3 +1052,5 @@ def dense_interval_minima(
     free(lo)
     return best if finite and conditioned else INFINITY
 
+
+include "_fepf_kernel.pxi"

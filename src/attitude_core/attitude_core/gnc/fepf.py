@@ -51,12 +51,13 @@ import math
 import os
 from dataclasses import dataclass
 from enum import StrEnum
-from typing import TYPE_CHECKING, cast
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 import numpy.typing as npt
 
 from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc import kernels
 from attitude_core.gnc.constraints import RIM_FLOOR, ConeGeometry
 from attitude_core.gnc.fuzzy import MamdaniFis, load_fis, lookup_table
 from attitude_core.gnc.fuzzy.files import resolve_fis
@@ -251,6 +252,18 @@ class FepfPlanner:
         self.watchdog = watchdog
         self.evade = False  # a moving sky: a cone coming over a held target pushes it out
         self.reset(sigma_0)
+        # The compiled step (kernels.compiled.FepfCore), None: the Python reference.
+        self._core: Any = (
+            None
+            if kernels.compiled is None
+            else kernels.compiled.FepfCore(
+                self,
+                PlannerOutput,
+                (PlannerStatus.TRACKING, PlannerStatus.ARRIVED, PlannerStatus.STUCK),
+                RIM_FLOOR,
+                _SIGHT_TOL_DEG,
+            )
+        )
 
     @classmethod
     def from_scenario(
@@ -342,8 +355,16 @@ class FepfPlanner:
 
         ``dt_since`` is the time since the previous proposal (it bounds the rate change,
         improved variant), ``dt_ahead`` the expected time to the next one (it bounds the
-        step, see the module docstring). Nothing moves until :meth:`advance`.
+        step, see the module docstring). Nothing moves until :meth:`advance`. Compiled
+        when the kernels are (:meth:`propose_reference`, to the bit).
         """
+        if self._core is not None:
+            out: PlannerOutput = self._core.propose(self, dt_since, dt_ahead)
+            return out
+        return self.propose_reference(dt_since, dt_ahead)
+
+    def propose_reference(self, dt_since: float, dt_ahead: float) -> PlannerOutput:
+        """:meth:`propose` in Python."""
         sx, sy, sz = self.sigma_t
         cfg = self.cfg
         if self.relative:
@@ -455,7 +476,15 @@ class FepfPlanner:
     def hold_rate(self, rate: Vec3Like, dt_ahead: float) -> Vec3:
         """Replace the rate held until the next proposal (a guidance layer's shaping) and
         return it made safe for a step of ``dt_ahead`` (the rate the target will move
-        with, so the one to publish); :meth:`advance` checks a longer step again."""
+        with, so the one to publish); :meth:`advance` checks a longer step again.
+        Compiled when the kernels are (:meth:`hold_rate_reference`)."""
+        if self._core is not None:
+            held: Vec3 = self._core.hold_rate(self, rate, dt_ahead)
+            return held
+        return self.hold_rate_reference(rate, dt_ahead)
+
+    def hold_rate_reference(self, rate: Vec3Like, dt_ahead: float) -> Vec3:
+        """:meth:`hold_rate` in Python."""
         safe, _ = self._safe_step(cast(Vec3, tuple(float(x) for x in rate)), dt_ahead)
         self._rate = safe
         self._omega_held = self._body_rate(safe)
@@ -506,8 +535,16 @@ class FepfPlanner:
         """Move ``sigma_t`` along the held rate for ``dt`` s (the time to the next state).
 
         The step is kept safe as in the proposal; a step the proposal already checked
-        (same rate, no longer) is taken as is.
+        (same rate, no longer) is taken as is. Compiled when the kernels are
+        (:meth:`advance_reference`).
         """
+        if self._core is not None:
+            self._core.advance(self, dt)
+        else:
+            self.advance_reference(dt)
+
+    def advance_reference(self, dt: float) -> None:
+        """:meth:`advance` in Python."""
         if self.status != PlannerStatus.TRACKING or dt <= 0.0:
             return
         rate = cast(Vec3, self._rate)

@@ -234,4 +234,12 @@ def lookup_table(fis: MamdaniFis) -> FisTable:
     and, through :mod:`.table_cache`, on disk. The cache key is the full definition and
     the builder's code, so an edited FIS file gets its own table.
     """
+    return _table_of(fis)
+
+
+@functools.lru_cache(maxsize=32)
+def _table_of(fis: MamdaniFis) -> FisTable:
+    """:func:`lookup_table` per FIS object (a :class:`MamdaniFis` does not change after
+    it is made, and the loader shares one per file text): its definition's key is made
+    once, not at every planner's start."""
     return _table_from_json(json.dumps(fis.spec, sort_keys=True), fis.label)
