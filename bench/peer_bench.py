@@ -43,7 +43,6 @@ import time
 from pathlib import Path
 
 import numpy as np
-import pyarrow.parquet as pq
 from campaign_bench import spec_file
 
 from attitude_core.closed_loop import run_closed_loop
@@ -148,6 +147,10 @@ def ours_case1(scenario, repeats: int) -> dict:
 
 def ours_campaign(runs: int) -> dict:
     """``runs`` random slews on a 1-worker LocalCluster, start to every output written."""
+    # Here, not at the top: the worker process imports this module again (spawn), and
+    # attitude-campaign's workers do not import pyarrow.
+    import pyarrow.parquet as pq
+
     with tempfile.TemporaryDirectory() as tmp_dir:
         tmp = Path(tmp_dir)
         spec = load_spec(spec_file(tmp, runs))

@@ -205,11 +205,13 @@ class Readiness:
 
 def per_step_outputs(spec: NodeSpec[Any]) -> tuple[str, ...]:
     """The topics ``spec`` publishes at every step whose readers are counted before the
-    first one: not a latched topic, not ``/clock`` (rclpy's time source reads it best
-    effort, in the nodes that use it). On ``/diagnostics`` the count is of the per-step
-    (volatile) writer's readers: the run identities' transient-local readers (every
-    node's guard, the lifecycle manager) do not match it."""
-    return tuple(name for name in spec.publishes if name != t.CLOCK and not t.topic(name).latched)
+    first one: not a latched topic. ``/clock`` counts its observers (the recorder: a
+    report calls a run lockstep when every state stamp is on a recorded ``/clock``); a
+    node that reads it for its time source (``use_sim_time``, best effort) only adds to
+    the count. On ``/diagnostics`` the count is of the per-step (volatile) writer's
+    readers: the run identities' transient-local readers (every node's guard, the
+    lifecycle manager) do not match it."""
+    return tuple(name for name in spec.publishes if not t.topic(name).latched)
 
 
 def readiness(expected_subscribers: int, sensing: bool = False) -> Readiness:

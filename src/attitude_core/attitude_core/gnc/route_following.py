@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from attitude_core.gnc.constraints import short_rotation_single
 from attitude_core.gnc.fepf import FepfPlanner
-from attitude_core.gnc.mrp import Vec3Like, angle_between_single, compose, relative
+from attitude_core.gnc.mrp import Vec3, Vec3Like, angle_between_single, compose, relative
 from attitude_core.gnc.route import Route
 
 __all__ = ["CARROTS", "MIN_SLACK_DEG", "RouteFollower", "braking_speed", "corner_speed"]
@@ -86,11 +86,13 @@ class RouteFollower:
         slack = max(route.clearance_deg - planner.geometry.inflation_deg, 0.0)
         self.swing_deg = max(0.5 * slack, MIN_SLACK_DEG)
         """Allowed swing off the route at a turn, and the capture angle of a waypoint."""
+        # The waypoints as tuples of floats (the per-step calls take them as they are).
+        self._wp: list[Vec3] = [(float(w[0]), float(w[1]), float(w[2])) for w in wp]
         self.leg = 0
         self._aim_at(1)
 
     def _aim_at(self, leg: int) -> None:
-        wp = self.route.waypoints
+        wp = self._wp
         self.leg = leg
         # The FIS goal distance runs along the rest of the route (tan(theta / 4) ~ theta / 4).
         self.planner.set_goal(wp[leg], final=leg == len(wp) - 1, beyond_mrp=0.25 * self._after[leg])
@@ -98,7 +100,7 @@ class RouteFollower:
     def advance(self) -> None:
         """Pass the waypoints behind the target, then keep its goal in sight."""
         planner = self.planner
-        wp = self.route.waypoints
+        wp = self._wp
         last = len(wp) - 1
         clearance = self.route.clearance_deg
         while self.leg < last:
@@ -114,12 +116,12 @@ class RouteFollower:
     def _aim_in_sight(self) -> None:
         planner = self.planner
         leg = self.leg
-        wp = self.route.waypoints
+        wp = self._wp
         here = planner.sigma_t
         need = planner.sight_margin_deg()
         geometry = planner.geometry
         if planner.arc_margin_deg(wp[leg]) >= need:
-            if planner.goal != tuple(float(x) for x in wp[leg]):
+            if planner.goal != wp[leg]:
                 self._aim_at(leg)
             return
         rel, theta = self._legs[leg - 1]
@@ -133,11 +135,11 @@ class RouteFollower:
     def remaining_rad(self, sigma_t: Vec3Like) -> float:
         """Rotation left to the goal from ``sigma_t`` along the route, rad."""
         leg = self.leg
-        return angle_between_single(sigma_t, self.route.waypoints[leg]) + self._after[leg]
+        return angle_between_single(sigma_t, self._wp[leg]) + self._after[leg]
 
     def corner_cap(self, sigma_t: Vec3Like, alpha: float, dt: float) -> float:
         """The braking curves to the turns at the waypoints ahead (:func:`corner_speed`)."""
-        wp = self.route.waypoints
+        wp = self._wp
         cap = math.inf
         to_next = angle_between_single(sigma_t, wp[self.leg])
         for k in range(self.leg, len(wp) - 1):

@@ -47,8 +47,10 @@ img { max-width: 100%; } .bad { color: #b3261e; font-weight: 600; }
 
 
 def _png(fig: Figure) -> str:
+    """The figure as an inline PNG: drawn once (fixed margins, set by its maker; a
+    tight bounding box would draw it twice)."""
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=110, bbox_inches="tight")
+    fig.savefig(buf, format="png", dpi=110)
     plt.close(fig)
     data = base64.b64encode(buf.getvalue()).decode("ascii")
     return f'<img alt="figure" src="data:image/png;base64,{data}">'
@@ -75,6 +77,7 @@ def _histograms(frame: pd.DataFrame) -> str:
         ax.set_ylabel("runs")
         ax.grid(alpha=0.3)
     axes[0].legend()
+    fig.subplots_adjust(left=0.04, right=0.99, bottom=0.09, top=0.91, wspace=0.2)
     return _png(fig)
 
 
@@ -98,6 +101,7 @@ def _rates_by(frame: pd.DataFrame, column: str, label: str) -> str:
         ax.set_ylim(0, 1.1)
         ax.set_title(f"{variant}: outcome by {label}", fontsize=10)
     axes[0][-1].legend(loc="lower right", fontsize=8)
+    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.15, top=0.9, wspace=0.22)
     return _png(fig)
 
 
