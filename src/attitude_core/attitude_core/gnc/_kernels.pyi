@@ -100,3 +100,13 @@ class FepfCore:
         self, planner: object, rate: _Vec, dt_ahead: float
     ) -> tuple[float, float, float]: ...
     def advance(self, planner: object, dt: float) -> None: ...
+
+class GuidanceCore:
+    def __init__(
+        self,
+        statuses: tuple[object, object, object, object, object],
+        output_cls: type,
+        progress_rad: float,
+        progress_mrp: float,
+    ) -> None: ...
+    def update(self, guidance: object, t_s: float, sigma_bn: _Vec, omega_b: _Vec) -> object: ...

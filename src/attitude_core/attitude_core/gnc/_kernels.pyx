@@ -1054,3 +1054,4 @@ def dense_interval_minima(
 
 
 include "_fepf_kernel.pxi"
+include "_guidance_kernel.pxi"

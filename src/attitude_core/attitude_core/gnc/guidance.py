@@ -82,6 +82,7 @@ import numpy as np
 import numpy.typing as npt
 
 from attitude_core.contract.status import PlannerStatus
+from attitude_core.gnc import kernels
 from attitude_core.gnc.fepf import FepfPlanner, PlannerOutput, scenario_fis
 from attitude_core.gnc.fepf import buffer_deg as planner_buffer_deg
 from attitude_core.gnc.fuzzy import MamdaniFis, lookup_table
@@ -264,6 +265,23 @@ class Guidance:
         self.goal_safe_until_s = math.inf  # when the goal next loses its clearance
         if sky_guide is not None:
             planner.evade = True
+        # The compiled step (kernels.compiled.GuidanceCore), None: the Python reference.
+        self._core: Any = (
+            None
+            if kernels.compiled is None or planner._core is None
+            else kernels.compiled.GuidanceCore(
+                (
+                    PlannerStatus.TRACKING,
+                    PlannerStatus.ARRIVED,
+                    PlannerStatus.STUCK,
+                    PlannerStatus.INFEASIBLE,
+                    PlannerStatus.BLOCKED,
+                ),
+                GuidanceOutput,
+                _PROGRESS_RAD,
+                _PROGRESS_MRP,
+            )
+        )
         if routes is not None:
             first = (
                 initial_route
@@ -458,7 +476,22 @@ class Guidance:
             self._best_body = self._best_target = math.inf
 
     def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
-        """The target for the measured state at time ``t_s`` (s, non-decreasing)."""
+        """The target for the measured state at time ``t_s`` (s, non-decreasing).
+        Compiled on a static sky with a decision on each state (the kernels built and
+        the planner's step compiled), :meth:`update_reference` otherwise (to the bit)."""
+        core = self._core
+        if (
+            core is not None
+            and self.planner._core is not None
+            and self.sky_guide is None
+            and self.knowledge.decision_window_s == 0.0
+        ):
+            out: GuidanceOutput = core.update(self, t_s, sigma_bn, omega_b)
+            return out
+        return self.update_reference(t_s, sigma_bn, omega_b)
+
+    def update_reference(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
+        """:meth:`update` in Python."""
         planner = self.planner
         nominal = planner.dt
         dt = 0.0 if self.t_prev is None else float(t_s) - self.t_prev
