@@ -627,9 +627,7 @@ class ConeGeometry:
         self._r2 = self._radii**2
         self._two_radii = 2.0 * self._radii
         self._m = len(self._radii)
-        self._circles_py = list(
-            zip(self._centres.tolist(), self._normals.tolist(), self._radii.tolist(), strict=True)
-        )
+        self._circles_list: list[tuple[list[float], list[float], float]] | None = None
 
     @staticmethod
     def _rim(c: _Floats, e1: _Floats, e2: _Floats, beta: float, phi: _Floats) -> _Floats:
@@ -720,9 +718,24 @@ class ConeGeometry:
         jm, jp = base + (j - 1) % k, base + (j + 1) % k
         return idx, float(d2[idx]), float(d2[jm]), float(d2[jp]), jm, jp
 
+    def _circles_py(self) -> list[tuple[list[float], list[float], float]]:
+        """The rim circles as ``(centre, normal, radius)`` in plain floats, for the
+        Python reference of the closest point (made at its first use: the compiled query
+        reads the circles' array)."""
+        if self._circles_list is None:
+            self._circles_list = list(
+                zip(
+                    self._centres.tolist(),
+                    self._normals.tolist(),
+                    self._radii.tolist(),
+                    strict=True,
+                )
+            )
+        return self._circles_list
+
     def _closest_on_circle(self, idx: int, sx: float, sy: float, sz: float) -> Vec3:
         """Closest point to ``(sx, sy, sz)`` on precomputed rim circle ``idx``."""
-        (cx, cy, cz), (nx, ny, nz), r = self._circles_py[idx]
+        (cx, cy, cz), (nx, ny, nz), r = self._circles_py()[idx]
         dx, dy, dz = sx - cx, sy - cy, sz - cz
         h = dx * nx + dy * ny + dz * nz
         rx, ry, rz = dx - h * nx, dy - h * ny, dz - h * nz
