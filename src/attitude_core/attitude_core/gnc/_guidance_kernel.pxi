@@ -38,8 +38,9 @@ cdef class GuidanceCore:
         fepf.advance(planner, dt)
         if g._pending is not None:
             g._collect_route(t)
-        if planner.status == self.tracking and g.follower is not None:
-            g.follower.advance()
+        follower = g.follower
+        if planner.status == self.tracking and follower is not None:
+            self._follow(follower, planner, fepf)
         cdef double ahead = dt if dt > nominal else nominal
         cdef double since = dt if dt > 0.0 else nominal
         out = fepf.propose(planner, since, ahead)
@@ -87,6 +88,41 @@ cdef class GuidanceCore:
             self._judge(g, planner, dt, e_goal, rate_b)
         out.status = g.status
         return self.output_cls(out, e_track, e_goal, factor, g.derating)
+
+    cdef void _follow(self, follower, planner, FepfCore fepf):
+        """``RouteFollower.advance``: pass the waypoints behind the target, then keep
+        its goal in sight (aiming back at the leg: the follower's own method)."""
+        cdef ConeKernel k = fepf._kernel(planner, False)
+        if k is None:
+            follower.advance()
+            return
+        wp = follower._wp
+        cdef Py_ssize_t last = len(wp) - 1, leg
+        cdef double clearance = follower.route.clearance_deg
+        cdef double swing = follower.swing_deg
+        cdef bint near
+        while True:
+            leg = follower.leg
+            if leg >= last:
+                break
+            here = planner.sigma_t
+            at = wp[leg]
+            near = _angle(here[0], here[1], here[2], at[0], at[1], at[2]) * _RAD_TO_DEG <= swing
+            if not near:
+                after = wp[leg + 1]
+                if k._arc(here[0], here[1], here[2], after[0], after[1], after[2]) < clearance:
+                    break
+            follower._aim_at(leg + 1)
+        # RouteFollower._aim_in_sight: the waypoint in sight, or the follower's carrots
+        leg = follower.leg
+        at = wp[leg]
+        here = planner.sigma_t
+        cdef double need = fepf._sight(planner, k, planner.geometry.inflation_deg)
+        if k._arc(here[0], here[1], here[2], at[0], at[1], at[2]) >= need:
+            if planner.goal != at:
+                follower._aim_at(leg)
+            return
+        follower._aim_in_sight()
 
     cdef void _judge(self, g, planner, double dt, double e_goal_deg, double rate_dec):
         """``Guidance._judge`` on the body's own error and rate."""
