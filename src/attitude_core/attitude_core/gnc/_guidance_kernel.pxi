@@ -160,18 +160,3 @@ cdef class GuidanceCore:
             g.status = self.stuck
             planner.hold(self.stuck)
 
-
-cdef inline double _angle(
-    double a1, double a2, double a3, double b1, double b2, double b3
-) noexcept:
-    """``mrp.angle_between_single_reference``."""
-    cdef double sa = a1 * a1 + a2 * a2 + a3 * a3
-    cdef double sb = b1 * b1 + b2 * b2 + b3 * b3
-    cdef double a0 = 1.0 - sa, b0 = 1.0 - sb
-    a1, a2, a3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
-    b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
-    cdef double w = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
-    cdef double v1 = b0 * a1 - a0 * b1 - (a2 * b3 - a3 * b2)
-    cdef double v2 = b0 * a2 - a0 * b2 - (a3 * b1 - a1 * b3)
-    cdef double v3 = b0 * a3 - a0 * b3 - (a1 * b2 - a2 * b1)
-    return 2.0 * atan2(sqrt(v1 * v1 + v2 * v2 + v3 * v3), fabs(w))

@@ -114,11 +114,11 @@ cdef inline void _relative(
     out[2] = q[3] * k
 
 
-def angle_between(sigma_a, sigma_b):
+cdef inline double _angle(
+    double a1, double a2, double a3, double b1, double b2, double b3
+) noexcept nogil:
     """Principal angle (rad, ``[0, pi]``) between two attitudes
     (``mrp.angle_between_single_reference``)."""
-    cdef double a1 = sigma_a[0], a2 = sigma_a[1], a3 = sigma_a[2]
-    cdef double b1 = sigma_b[0], b2 = sigma_b[1], b3 = sigma_b[2]
     cdef double sa = a1 * a1 + a2 * a2 + a3 * a3
     cdef double sb = b1 * b1 + b2 * b2 + b3 * b3
     cdef double a0 = 1.0 - sa, b0 = 1.0 - sb
@@ -129,6 +129,12 @@ def angle_between(sigma_a, sigma_b):
     cdef double v2 = b0 * a2 - a0 * b2 - (a3 * b1 - a1 * b3)
     cdef double v3 = b0 * a3 - a0 * b3 - (a1 * b2 - a2 * b1)
     return 2.0 * atan2(sqrt(v1 * v1 + v2 * v2 + v3 * v3), fabs(w))
+
+
+def angle_between(sigma_a, sigma_b):
+    """Principal angle (rad, ``[0, pi]``) between two attitudes
+    (``mrp.angle_between_single_reference``)."""
+    return _angle(sigma_a[0], sigma_a[1], sigma_a[2], sigma_b[0], sigma_b[1], sigma_b[2])
 
 
 def relative(sigma_bn, sigma_rn):
@@ -382,7 +388,7 @@ cdef class LoopPlant:
         cdef double gl[3]
         cdef double e_lim = band_deg * (1.0 - HOLD_GUARD)
         cdef double r_lim = band_rate * (1.0 - HOLD_GUARD)
-        cdef double a1, a2, a3, b1, b2, b3, sa, sb, a0, b0, ww, v1, v2, v3, e, r
+        cdef double e, r
         cdef double* s
         cdef double* w
         cdef int i
@@ -393,19 +399,8 @@ cdef class LoopPlant:
         while k < stop:
             s = &self.sigma[k, 0]
             w = &self.omega[k, 0]
-            # angle_between(s, goal), in degrees (the guidance's attitude error)
-            a1, a2, a3 = s[0], s[1], s[2]
-            b1, b2, b3 = gl[0], gl[1], gl[2]
-            sa = a1 * a1 + a2 * a2 + a3 * a3
-            sb = b1 * b1 + b2 * b2 + b3 * b3
-            a0, b0 = 1.0 - sa, 1.0 - sb
-            a1, a2, a3 = 2.0 * a1, 2.0 * a2, 2.0 * a3
-            b1, b2, b3 = 2.0 * b1, 2.0 * b2, 2.0 * b3
-            ww = a0 * b0 + a1 * b1 + a2 * b2 + a3 * b3
-            v1 = b0 * a1 - a0 * b1 - (a2 * b3 - a3 * b2)
-            v2 = b0 * a2 - a0 * b2 - (a3 * b1 - a1 * b3)
-            v3 = b0 * a3 - a0 * b3 - (a1 * b2 - a2 * b1)
-            e = 2.0 * atan2(sqrt(v1 * v1 + v2 * v2 + v3 * v3), fabs(ww)) * _RAD_TO_DEG
+            # the guidance's attitude error, deg
+            e = _angle(s[0], s[1], s[2], gl[0], gl[1], gl[2]) * _RAD_TO_DEG
             r = sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
             if not (e <= e_lim and r <= r_lim):  # NaN leaves too
                 break
@@ -493,7 +488,7 @@ cdef class ConeKernel:
     cdef Py_ssize_t samples
     cdef double[:, ::1] rims  # per rim: body vector, inertial direction, angle, d2 slack
     cdef const double[:, ::1] rim_dirs  # per circle: its rim direction (inertial)
-    cdef double[::1] rim_bound  # per rim: the current query's lower bound, squared
+    cdef double[:, ::1] rim_now  # per rim, this query's: the body vector (inertial), bound^2
 
     def __init__(
         self,
@@ -524,7 +519,7 @@ cdef class ConeKernel:
         # largest |centre| + radius (+1) squared of the rim's circles (its rounding is a
         # few ulps of those terms).
         self.rims = np.empty((n_rims, 8))
-        self.rim_bound = np.empty(n_rims)
+        self.rim_now = np.empty((n_rims, 4))
         cdef double size, big
         for p in range(n_rims):
             for i in range(7):
@@ -614,7 +609,7 @@ cdef class ConeKernel:
         cdef const double[:, ::1] circles = self.circles
         cdef const double[:, ::1] dirs = self.rim_dirs
         cdef double[:, ::1] rims = self.rims
-        cdef double[::1] bound = self.rim_bound
+        cdef double[:, ::1] now = self.rim_now
         cdef Py_ssize_t samples = self.samples, n_rims = rims.shape[0], p, i, first = 0
         cdef Py_ssize_t best_i = 0, lo, near = 0, k
         cdef double s2 = sx * sx + sy * sy + sz * sz
@@ -631,14 +626,12 @@ cdef class ConeKernel:
             lb = lb * lb if lb > 0.0 else 0.0
             if not (lb >= 0.0):  # NaN: never skip
                 lb = 0.0
-            bound[p] = lb
+            now[p, 0], now[p, 1], now[p, 2], now[p, 3] = bx, by, bz, lb
             if lb < least:
                 least = lb
                 first = p
         # An upper bound: the circles about the nearest rim direction of the least-bound rim.
-        bx = rims[first, 0] * r[0] + rims[first, 1] * r[3] + rims[first, 2] * r[6]
-        by = rims[first, 0] * r[1] + rims[first, 1] * r[4] + rims[first, 2] * r[7]
-        bz = rims[first, 0] * r[2] + rims[first, 1] * r[5] + rims[first, 2] * r[8]
+        bx, by, bz = now[first, 0], now[first, 1], now[first, 2]
         lo = first * samples
         top = -INFINITY
         for i in range(lo, lo + samples):
@@ -654,29 +647,21 @@ cdef class ConeKernel:
         if not (ub < INFINITY):  # NaN distances: the full scan decides
             ub = INFINITY
         for p in range(n_rims):
-            if bound[p] > ub + rims[p, 7]:
+            if now[p, 3] > ub + rims[p, 7]:
                 continue
             lo = p * samples
-            # The circles whose rim direction is farther than theta: beyond ub too.
+            # The circles whose rim direction is farther than theta: beyond ub too (at
+            # theta near pi or beyond, every circle is measured).
             theta = 1e-7 + 4.0 * sqrt(ub + rims[p, 7]) / 0.999
-            if theta < 3.0:
-                cos_min = cos(theta) - 1e-12
-                bx = rims[p, 0] * r[0] + rims[p, 1] * r[3] + rims[p, 2] * r[6]
-                by = rims[p, 0] * r[1] + rims[p, 1] * r[4] + rims[p, 2] * r[7]
-                bz = rims[p, 0] * r[2] + rims[p, 1] * r[5] + rims[p, 2] * r[8]
-                for i in range(lo, lo + samples):
-                    if bx * dirs[i, 0] + by * dirs[i, 1] + bz * dirs[i, 2] < cos_min:
-                        continue
-                    d2 = _circle_d2(circles, i, sx, sy, sz, s2)
-                    if d2 < best:  # the first of equal distances, as argmin
-                        best = d2
-                        best_i = i
-            else:
-                for i in range(lo, lo + samples):
-                    d2 = _circle_d2(circles, i, sx, sy, sz, s2)
-                    if d2 < best:
-                        best = d2
-                        best_i = i
+            cos_min = cos(theta) - 1e-12 if theta < 3.0 else -INFINITY
+            bx, by, bz = now[p, 0], now[p, 1], now[p, 2]
+            for i in range(lo, lo + samples):
+                if bx * dirs[i, 0] + by * dirs[i, 1] + bz * dirs[i, 2] < cos_min:
+                    continue
+                d2 = _circle_d2(circles, i, sx, sy, sz, s2)
+                if d2 < best:  # the first of equal distances, as argmin
+                    best = d2
+                    best_i = i
         return best_i
 
     def closest_rim(self, sigma):
