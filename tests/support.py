@@ -28,6 +28,19 @@ needs_workspace = pytest.mark.skipif(
 """Mark for tests that start the project's nodes: they need the built colcon workspace."""
 
 
+def exact_bits(value: Any) -> Any:
+    """A value's exact identity, for comparing two computations to the bit: floats and
+    float arrays by their bytes (NaN and signed zeros too), tuples element by element,
+    anything else as it is."""
+    import numpy as np
+
+    if isinstance(value, (float, np.ndarray)):
+        return np.asarray(value, dtype=float).tobytes()
+    if isinstance(value, tuple):
+        return tuple(exact_bits(v) for v in value)
+    return value
+
+
 def run_env(domain: int) -> dict[str, str]:
     """The caller's environment on ROS domain ``domain``, discovery on this host only, for
     ``attitude-run`` (which finds the workspace itself)."""

@@ -20,6 +20,7 @@ from attitude_core.gnc import kernels
 from attitude_core.gnc.fepf import FepfPlanner
 from attitude_core.gnc.guidance import Guidance
 from tests.support import ROOT
+from tests.support import exact_bits as _bits
 
 pytestmark = pytest.mark.skipif(
     kernels.compiled is None and os.environ.get(kernels.ENV) == "python",
@@ -41,15 +42,6 @@ STATE = (
     "_best_goal_distance",
     "_since_progress",
 )
-
-
-def _bits(value: Any) -> Any:
-    """A value's exact identity: floats by their bytes (NaN and signed zeros too)."""
-    if isinstance(value, (float, np.ndarray)):
-        return np.asarray(value, dtype=float).tobytes()
-    if isinstance(value, tuple):
-        return tuple(_bits(v) for v in value)
-    return value
 
 
 def _output_bits(out: Any) -> tuple[Any, ...]:

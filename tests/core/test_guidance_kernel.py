@@ -20,6 +20,7 @@ from attitude_core.gnc.mrp import compose
 from attitude_tools.campaign.draw import base_parameters, draw_run
 from attitude_tools.campaign.spec import load_spec
 from tests.support import ROOT
+from tests.support import exact_bits as _bits
 
 pytestmark = pytest.mark.skipif(
     kernels.compiled is None and os.environ.get(kernels.ENV) == "python",
@@ -52,14 +53,6 @@ GUIDANCE_STATE = (
 )
 KNOCKS = (0.5, 1.5, 2.03, 2.06, 1.99, 3.0, 2.04)
 PLANNER_STATE = ("sigma_t", "_rate", "_omega_held", "status", "goal", "_d_goal")
-
-
-def _bits(value: Any) -> Any:
-    if isinstance(value, (float, np.ndarray)):
-        return np.asarray(value, dtype=float).tobytes()
-    if isinstance(value, tuple):
-        return tuple(_bits(v) for v in value)
-    return value
 
 
 def _snapshot(g: Guidance, out: Any) -> tuple[Any, ...]:
