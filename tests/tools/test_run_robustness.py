@@ -135,6 +135,46 @@ def test_sigkilled_run_leaves_no_orphans_and_the_next_run_recovers(tmp_path, ros
 
 
 @pytest.mark.ros
+@pytest.mark.slow
+@needs_workspace
+def test_nodes_stopped_together_with_their_manager_exit_at_once(tmp_path, ros_domain):
+    """SIGTERM to the four nodes and their lifecycle manager at once, attitude-run alive
+    but silent (stopped): as when the parent-death signal comes from the first of
+    attitude-run's threads to die. The manager's bring-down skips the nodes that have
+    left the graph instead of waiting a second for each one's answer (8 s for 4 nodes
+    and 2 transitions), and every process is gone within 5 s."""
+    out = tmp_path / "out"
+    run = spawn_attitude_run(
+        CASE1, out, run_env(ros_domain), "--settle-s", "200.0", start_new_session=True
+    )
+    try:
+        nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 5 and c, 60, "5 processes")
+        (staging,) = tmp_path.glob(".tmp-run-out-*")
+        _wait(
+            lambda: "status arrived" in (staging / "logs" / "planner.log").read_text(),
+            240,
+            "planner arrived",
+        )
+        os.kill(run.pid, signal.SIGSTOP)
+        try:
+            for n in nodes:
+                os.kill(n.pid, signal.SIGTERM)
+            stopped = time.monotonic()
+            _wait(lambda: not any(n.alive() for n in nodes), EXIT_WITHIN_S, "every node exited")
+            print(f"nodes and manager gone {time.monotonic() - stopped:.2f} s after SIGTERM")
+        finally:
+            os.kill(run.pid, signal.SIGCONT)
+        run.wait(60)
+    finally:
+        if run.poll() is None:
+            os.killpg(run.pid, signal.SIGKILL)
+            run.wait()
+    # What was recorded is kept: the bag finished, the run published with its steps.
+    assert "bag closed" in (out / "logs" / "recorder.log").read_text()
+    assert _strict((out / "summary.json").read_text())["steps_recorded"] > 0
+
+
+@pytest.mark.ros
 @needs_workspace
 def test_node_stops_when_the_process_named_by_its_owner_variable_dies(tmp_path, ros_domain):
     """The parent watchdog alone (no parent-death signal): a node started with

@@ -61,9 +61,11 @@ class Failure(Exception):
 
 
 class LifecycleManager:
-    def __init__(self, node: Node) -> None:
+    def __init__(self, node: Node, parent_pid: int | None = None) -> None:
+        """``parent_pid``: the process that started this one (attitude-run), whose
+        death ends the run without a bring-down."""
         own, _ = declare_node_parameters(node, node_graph.MANAGER.parameters)
-        self.node, self.p = node, own
+        self.node, self.p, self.parent_pid = node, own, parent_pid
         self.names = [n for n in own.node_names if n]
         self.watch = TransitionWatch()
         self.failures: list[str] = []
@@ -257,21 +259,31 @@ class LifecycleManager:
                 return
             rclpy.spin_once(self.node, timeout_sec=POLL_S)
 
+    def orphaned(self) -> bool:
+        """Whether the process that started this one has died (its nodes get the same
+        parent-death signal and end with it). Asked again at every wait of the
+        bring-down: the kernel sends that signal when the *thread* that started the
+        process exits, so it can come while the parent's other threads are still
+        ending, and this process is reparented only after the last one."""
+        return self.parent_pid is not None and os.getppid() != self.parent_pid
+
     def has_gone(self, name: str) -> bool:
-        """Whether ``name``'s process has ended: attitude-run says so with a line
-        ``gone NODE ...`` during the bring-down (a node may end by itself meanwhile,
-        e.g. the simulator at the scenario's end: no waiting on its services then)."""
+        """Whether ``name`` is no longer there to bring down: attitude-run says its
+        process has ended with a line ``gone NODE ...`` (a node may end by itself, e.g.
+        the simulator at the scenario's end); or the node has left the graph (a node
+        leaves it when it is destroyed: stopped by the same signal as this manager);
+        or attitude-run itself has died (:meth:`orphaned`). No waiting on its services
+        then."""
         while (line := self.command()) is not None:
             words = line.split()
             if words[:1] == ["gone"]:
                 self.gone.update(words[1:])
-        return name in self.gone
+        return name in self.gone or name not in self.alive() or self.orphaned()
 
     def bring_down(self) -> None:
         """Deactivate, then shut down, in reverse order; a node that is gone (exited,
-        or not in the graph) is skipped."""
-        alive = self.alive() - self.gone
-        order = [n for n in bring_down_order(self.names) if n in alive]
+        or not in the graph) is skipped; nothing is done once attitude-run has died."""
+        order = bring_down_order(self.names)
         for label in ("deactivate", "shutdown"):
             for name in order:
                 gone = lambda name=name: self.has_gone(name)
@@ -289,7 +301,7 @@ class LifecycleManager:
 
 def main(args: list[str] | None = None) -> int:
     stop: list[int] = []
-    parent = os.getppid()
+    parent_pid = os.getppid()
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, lambda n, f: stop.append(n))
     dds_profile.apply()  # before rclpy.init: the stack's discovery timing
@@ -299,7 +311,7 @@ def main(args: list[str] | None = None) -> int:
     node = rclpy.create_node(node_graph.MANAGER.node_name)
     code = 0
     try:
-        manager = LifecycleManager(node)
+        manager = LifecycleManager(node, parent_pid)
     except ParameterError as err:
         print(f"[{node.get_name()}] error: parameter: {err}", file=sys.stderr, flush=True)
         rclpy.try_shutdown()
@@ -315,8 +327,7 @@ def main(args: list[str] | None = None) -> int:
         code = 1
         manager.run(stop)  # attitude-run decides when the nodes go down
     finally:
-        if os.getppid() == parent:  # else attitude-run died: the nodes have gone with it
-            manager.bring_down()
+        manager.bring_down()  # none when attitude-run died: the nodes have gone with it
         manager.emit("down")
         node.destroy_node()
         rclpy.try_shutdown()

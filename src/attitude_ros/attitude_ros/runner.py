@@ -81,7 +81,7 @@ def run(
     :func:`exit_process` instead of returning: no interpreter teardown, a fifth of a
     second less for each node at the end of every run.
     """
-    code = _run(node_factory, args)
+    code = _run(node_factory, args, restore_signals=not fast_exit)
     if fast_exit:
         exit_process(code)
     return code
@@ -95,15 +95,25 @@ def exit_process(code: int) -> NoReturn:
     the peers' graph; without it they stay listed until the participant's lease (10 s)
     runs out.
 
-    The context's destruction waits for its last user, and reference cycles of the
-    node's objects keep some alive until a garbage collection this exit skips (about
-    0.1 s): the participant is then not destroyed, so its shared-memory segment is
-    removed here (:func:`attitude_core.runtime.shm_segments.remove_own_segments`)."""
+    The DDS participant must be destroyed before ``os._exit``: a process that ends with
+    its participant alive can end while one of its Fast DDS threads holds the lock of a
+    shared-memory port, and every peer that writes to that port then waits a second per
+    write (seen as 1-3 s tails at the end of a run). The context's destruction waits
+    for its last user, and reference cycles of the node's objects keep some alive, so
+    they are collected first (20-40 ms). From here on SIGINT and SIGTERM are ignored: a
+    second parent-death signal (one per exiting thread of the parent) must not end the
+    process in the middle of this teardown. A segment still owned after all that is
+    removed (:func:`attitude_core.runtime.shm_segments.remove_own_segments`)."""
+    import gc
+
     import rclpy
 
     from attitude_core.runtime.shm_segments import remove_own_segments
 
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, signal.SIG_IGN)
     rclpy.try_shutdown()
+    gc.collect()  # the cycles holding the context's last users
     context = rclpy.get_default_context()
     if context.handle is not None:
         context.destroy()
@@ -114,7 +124,9 @@ def exit_process(code: int) -> NoReturn:
     os._exit(code)
 
 
-def _run(node_factory: Callable[[], Node], args: list[str] | None) -> int:
+def _run(
+    node_factory: Callable[[], Node], args: list[str] | None, restore_signals: bool = True
+) -> int:
     stop = []
     previous = {
         s: signal.signal(s, lambda signum, frame: stop.append(signum))
@@ -180,6 +192,6 @@ def _run(node_factory: Callable[[], Node], args: list[str] | None) -> int:
             node.destroy_node()  # type: ignore[no-untyped-call]  # unannotated in rclpy
         if rclpy_ok():
             rclpy.shutdown()
-        for s, handler in previous.items():
-            signal.signal(s, handler)
+        for s, handler in previous.items() if restore_signals else ():
+            signal.signal(s, handler)  # else a late signal is only noted (the exit is near)
     return code

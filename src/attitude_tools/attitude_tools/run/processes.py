@@ -3,6 +3,10 @@
 :func:`die_with_parent` gives a ``Popen(preexec_fn=...)`` that asks the kernel to send
 the child SIGTERM when the process that started it exits, however it exits (SIGKILL
 included). The setting survives ``exec`` (of the ``ros2 run`` shim, then of the node).
+The kernel sends it when the *thread* that called ``Popen`` exits: start children from
+the main thread; and a process killed with threads of its own can signal its children
+before it is gone (``os.getppid()`` still names it for a moment; once per exiting
+thread, so a child may get the signal twice).
 Race-free: if the parent died between ``fork`` and ``prctl``, the child sees another
 parent and exits at once. On other systems the hook does nothing; the nodes' parent
 watchdog (``attitude_ros.runner``, :data:`~attitude_core.runtime.process_identity.OWNER_ENV`)
