@@ -80,6 +80,32 @@ def _dead_identity() -> ProcessIdentity:
 # --- no orphans ---------------------------------------------------------------------------
 
 
+def _past_arrival(out: Path, domain: int) -> tuple[subprocess.Popen, list[ProcessIdentity], Path]:
+    """``attitude-run`` of Case 1 into ``out`` in a session of its own, mid-run: the
+    planner has declared the arrival, so hundreds of steps are in the bag, and the run
+    records on (``--settle-s 200``). (A run stopped at the planner's first answer left a
+    bag with no complete step under load: the first applied torque comes a step later.)
+    Returns the process, its five children (the four nodes and their lifecycle manager)
+    and its staging directory; a failed wait kills the run."""
+    run = spawn_attitude_run(
+        CASE1, out, run_env(domain), "--settle-s", "200.0", start_new_session=True
+    )
+    try:
+        nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 5 and c, 60, "5 processes")
+        stages = list(out.parent.glob(f".tmp-run-{out.name}-*"))
+        assert len(stages) == 1, stages
+        _wait(
+            lambda: "status arrived" in (stages[0] / "logs" / "planner.log").read_text(),
+            240,
+            "planner arrived",
+        )
+    except BaseException:
+        os.killpg(run.pid, signal.SIGKILL)
+        run.wait()
+        raise
+    return run, nodes, stages[0]
+
+
 @pytest.mark.ros
 @pytest.mark.slow
 @needs_workspace
@@ -89,24 +115,8 @@ def test_sigkilled_run_leaves_no_orphans_and_the_next_run_recovers(tmp_path, ros
     (parent-death signal), the recorder finishes the bag; the next run into the same
     --out recovers that staging directory as ``out.interrupted-*`` and completes."""
     out = tmp_path / "out"
-    run = spawn_attitude_run(
-        CASE1, out, run_env(ros_domain), "--settle-s", "200.0", start_new_session=True
-    )
+    run, nodes, staging = _past_arrival(out, ros_domain)
     try:
-        # The four nodes and their lifecycle manager.
-        nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 5 and c, 60, "5 processes")
-        stages = list(tmp_path.glob(".tmp-run-out-*"))
-        assert len(stages) == 1, stages
-        staging = stages[0]
-        # Mid-run: the planner has declared the arrival, so hundreds of steps are in the
-        # bag, and the run records on (--settle-s 200). (Killing at its first answer left
-        # a bag with no complete step under load: the first applied torque comes a step
-        # later.)
-        _wait(
-            lambda: "status arrived" in (staging / "logs" / "planner.log").read_text(),
-            240,
-            "planner arrived",
-        )
         os.killpg(run.pid, signal.SIGKILL)
         killed = time.monotonic()
         run.wait(10)
@@ -144,17 +154,8 @@ def test_nodes_stopped_together_with_their_manager_exit_at_once(tmp_path, ros_do
     left the graph instead of waiting a second for each one's answer (8 s for 4 nodes
     and 2 transitions), and every process is gone within 5 s."""
     out = tmp_path / "out"
-    run = spawn_attitude_run(
-        CASE1, out, run_env(ros_domain), "--settle-s", "200.0", start_new_session=True
-    )
+    run, nodes, _ = _past_arrival(out, ros_domain)
     try:
-        nodes = _wait(lambda: (c := _children(run.pid)) and len(c) == 5 and c, 60, "5 processes")
-        (staging,) = tmp_path.glob(".tmp-run-out-*")
-        _wait(
-            lambda: "status arrived" in (staging / "logs" / "planner.log").read_text(),
-            240,
-            "planner arrived",
-        )
         os.kill(run.pid, signal.SIGSTOP)
         try:
             for n in nodes:

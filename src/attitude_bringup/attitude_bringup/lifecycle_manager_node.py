@@ -61,7 +61,7 @@ class Failure(Exception):
 
 
 class LifecycleManager:
-    def __init__(self, node: Node, parent_pid: int | None = None) -> None:
+    def __init__(self, node: Node, parent_pid: int) -> None:
         """``parent_pid``: the process that started this one (attitude-run), whose
         death ends the run without a bring-down."""
         own, _ = declare_node_parameters(node, node_graph.MANAGER.parameters)
@@ -265,7 +265,7 @@ class LifecycleManager:
         bring-down: the kernel sends that signal when the *thread* that started the
         process exits, so it can come while the parent's other threads are still
         ending, and this process is reparented only after the last one."""
-        return self.parent_pid is not None and os.getppid() != self.parent_pid
+        return os.getppid() != self.parent_pid
 
     def has_gone(self, name: str) -> bool:
         """Whether ``name`` is no longer there to bring down: attitude-run says its
