@@ -24,14 +24,13 @@ import time
 
 import numpy as np
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core import kernels
+from attitude_core.assembly.guidance import guidance_from_scenario, planner_from_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc import kernels
-from attitude_core.gnc.fepf import FepfPlanner
-from attitude_core.gnc.guidance import Guidance
-from attitude_core.gnc.mekf import Mekf, MekfConfig
-from attitude_core.gnc.sensors import SensorSuite
+from attitude_core.fsw.estimation.mekf import Mekf, MekfConfig
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.world.sensors import SensorSuite
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 AIM_STEP_US = 50.0
@@ -41,7 +40,7 @@ AIM_CASE1_WALL_S = 0.5
 def planner_step_times(scenario, repeats):
     samples = []
     for _ in range(repeats):
-        planner = FepfPlanner.from_scenario(scenario)
+        planner = planner_from_scenario(scenario)
         for _ in range(scenario.n_steps):
             t0 = time.perf_counter_ns()
             out = planner.step()
@@ -56,8 +55,8 @@ def guidance_update_times(scenario, repeats):
     own target path (so the governor never holds)."""
     samples = []
     for _ in range(repeats):
-        path = FepfPlanner.from_scenario(scenario)
-        guidance = Guidance.from_scenario(scenario)
+        path = planner_from_scenario(scenario)
+        guidance = guidance_from_scenario(scenario)
         for k in range(scenario.n_steps):
             sigma = path.step().sigma_t
             t0 = time.perf_counter_ns()
@@ -97,8 +96,8 @@ def _offline_wall(scenario, repeats):
 
 _REFERENCE_RUN = """
 import statistics, sys, time
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.config.scenario_loader import load_scenario
 sc = load_scenario(sys.argv[1])
 run_closed_loop(sc)
 walls = []

@@ -33,14 +33,14 @@ import time
 
 import numpy as np
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import loads_scenario
+from attitude_core.assembly.guidance import planner_from_scenario
+from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc.control import PdGains, commanded_torque
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.fepf import FepfPlanner
+from attitude_core.fsw.control.pd import PdGains, commanded_torque
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import RunResult
+from attitude_core.world.rigid_body import RigidBody
 from attitude_tools.campaign.draw import base_parameters, draw_run
 from attitude_tools.campaign.spec import CampaignSpec, Range
 
@@ -117,7 +117,7 @@ def open_loop(sc) -> RunResult:
     """The reference: the open-loop FEPF (one planner step per state), torque scaled."""
     wall0 = time.perf_counter()
     n, dt = sc.n_steps, sc.dt_s
-    planner = FepfPlanner.from_scenario(sc)
+    planner = planner_from_scenario(sc)
     gains = PdGains(sc.kp, sc.kd)
     body = RigidBody(sc.inertia_kgm2, sc.initial_mrp, sc.initial_rate_rad_s)
     cols = {k: np.empty((n + 1, 3)) for k in ("s", "w", "u", "st", "wt")}

@@ -45,9 +45,9 @@ from pathlib import Path
 import numpy as np
 from campaign_bench import spec_file
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc.guidance import Guidance
+from attitude_core.assembly.guidance import guidance_from_scenario
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.metrics import arrival_time
 from attitude_core.record.summary import constraint_margins_deg, summarize
 from attitude_tools.campaign.cli import run_campaign
@@ -130,7 +130,7 @@ def ours_case1(scenario, repeats: int) -> dict:
         run = run_closed_loop(scenario)
         walls.append(time.perf_counter() - t0)
         t0 = time.perf_counter()
-        Guidance.from_scenario(scenario)
+        guidance_from_scenario(scenario)
         setups.append(time.perf_counter() - t0)
     margins, t_reach = judged(scenario, run.t, run.sigma_bn, run.omega_b)
     summary = summarize(run)

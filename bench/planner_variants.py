@@ -11,8 +11,8 @@ import argparse
 import dataclasses
 import os
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.summary import summarize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

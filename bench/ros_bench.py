@@ -37,8 +37,8 @@ import sys
 import tempfile
 import time
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_tools.run.domain import reserve_domain
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))

@@ -1,4 +1,4 @@
-"""Benchmark of the global route (``attitude_core.gnc.route``): planning time per scenario
+"""Benchmark of the global route (``attitude_core.fsw.guidance.route``): planning time per scenario
 over a campaign's drawn scenarios, the one-off roadmap build, and the time to decide
 that a slew is infeasible, from a cold process.
 
@@ -28,9 +28,13 @@ from pathlib import Path
 
 import numpy as np
 
-from attitude_core.gnc.fepf import FepfPlanner
-from attitude_core.gnc.guidance import Guidance, scenario_eta_s
-from attitude_core.gnc.route import FINE_FACTOR, ROADMAP_NODES, roadmap
+from attitude_core.assembly.guidance import (
+    moving_sky_guide,
+    planner_from_scenario,
+    route_planner,
+    scenario_eta_s,
+)
+from attitude_core.fsw.guidance.route import FINE_FACTOR, ROADMAP_NODES, roadmap
 from attitude_tools.campaign.draw import base_parameters, draw_run
 from attitude_tools.campaign.spec import load_spec
 
@@ -41,14 +45,14 @@ DECIDE_BUDGET_S = 1.0
 _COLD = """
 import time, sys
 t0 = time.perf_counter()
-from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc.guidance import Guidance
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.assembly.guidance import guidance_from_scenario
 sc = load_scenario(sys.argv[1])
 t1 = time.perf_counter()
-g = Guidance.from_scenario(sc)
+g = guidance_from_scenario(sc)
 t2 = time.perf_counter()
 assert g.status.value == "infeasible", g.status
-g2 = Guidance.from_scenario(sc)
+g2 = guidance_from_scenario(sc)
 t3 = time.perf_counter()
 print(t1 - t0, t2 - t1, t3 - t2)
 """
@@ -60,12 +64,12 @@ def route_times(spec_path: Path, runs: int) -> tuple[np.ndarray, dict[str, int]]
     times, kinds = [], {"direct": 0, "roadmap": 0, "dense roadmap": 0, "infeasible": 0}
     for i in range(runs):
         sc = draw_run(spec, base, i, spec.planner_variants[0]).scenario
-        buffer = FepfPlanner.from_scenario(sc).geometry.inflation_deg
-        guide = Guidance.moving_sky_guide(sc, buffer)  # None on a fixed sky
+        buffer = planner_from_scenario(sc).geometry.inflation_deg
+        guide = moving_sky_guide(sc, buffer)  # None on a fixed sky
         eta = scenario_eta_s(sc, sc.initial_mrp)
         t0 = time.perf_counter()
         if guide is None:
-            route = Guidance.route_planner(sc, buffer).plan(sc.initial_mrp, sc.desired_mrp)
+            route = route_planner(sc, buffer).plan(sc.initial_mrp, sc.desired_mrp)
         else:  # the cones swept over the expected slew: their geometry, planner and route
             route = guide.plan_route(0.0, eta, sc.initial_mrp, sc.desired_mrp)
         times.append(time.perf_counter() - t0)

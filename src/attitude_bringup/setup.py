@@ -13,7 +13,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
-    install_requires=['setuptools'],
+    install_requires=['setuptools', 'attitude-core', 'attitude-tools'],
     zip_safe=True,
     maintainer='Attitude Stack Maintainers',
     maintainer_email='maintainers@attitude-stack.dev',

@@ -10,7 +10,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
     ],
-    install_requires=['setuptools'],
+    install_requires=['setuptools', 'attitude-core'],
     zip_safe=True,
     maintainer='Attitude Stack Maintainers',
     maintainer_email='maintainers@attitude-stack.dev',

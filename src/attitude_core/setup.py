@@ -1,6 +1,6 @@
 """Build of attitude_core's compiled kernels (metadata in pyproject.toml).
 
-``gnc/_kernels.pyx`` is compiled ahead of time to a C extension when the package is
+``kernels/_kernels.pyx`` is compiled ahead of time to a C extension when the package is
 installed (tools/bootstrap), so no process pays a compile at start-up. IEEE double
 without floating-point contraction and with libm's own pow, so the kernels round as
 their Python references do.
@@ -13,8 +13,8 @@ setup(
     ext_modules=cythonize(
         [
             Extension(
-                "attitude_core.gnc._kernels",
-                ["attitude_core/gnc/_kernels.pyx"],
+                "attitude_core.kernels._kernels",
+                ["attitude_core/kernels/_kernels.pyx"],
                 extra_compile_args=[
                     "-O2",
                     "-ffp-contract=off",

@@ -14,7 +14,9 @@ import yaml
 
 from attitude_core.config.node_parameters import CONTROLLER, PLANNER, RECORDER, SIMULATOR
 from attitude_core.config.parameters import Param, ParameterError, convert
-from attitude_core.config.scenario import ScenarioError, loads_scenario, scenario_keys
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_flatten import scenario_keys
+from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.config.scenario_schema import (
     INSTRUMENT_PARAMETERS,
     KEEP_IN_PARAMETERS,

@@ -8,12 +8,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import ScenarioError, load_scenario, loads_scenario
-from attitude_core.gnc.actuators import clip_to_bound, scale_to_bound
-from attitude_core.gnc.control import PdGains, commanded_torque, pd_torque
-from attitude_core.gnc.dynamics import RigidBody
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import load_scenario, loads_scenario
+from attitude_core.fsw.control.pd import PdGains, commanded_torque, pd_torque
+from attitude_core.fsw.control.saturation import scale_to_bound
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.runtime.sim_stepper import Action, SimStepper, StepperConfig
+from attitude_core.world.actuator import clip_to_bound
+from attitude_core.world.rigid_body import RigidBody
 
 ROOT = Path(__file__).resolve().parents[2]
 CASE1 = ROOT / "scenarios" / "case1.yaml"

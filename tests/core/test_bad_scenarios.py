@@ -30,8 +30,9 @@ import yaml
 from support import needs_workspace
 
 import attitude_tools.run.cli as attitude_run
-from attitude_core.config.scenario import ScenarioError, load_scenario
-from attitude_core.gnc.mrp import dcm_from_mrp, shadow
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.models.mrp import dcm_from_mrp, shadow
 from attitude_tools import offline
 
 ROOT = Path(__file__).resolve().parents[2]

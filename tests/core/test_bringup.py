@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.runtime.bringup import (
     TRANSITION_GOALS,
     TransitionWatch,

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from attitude_core.gnc.constraints import (
+from attitude_core.models.constraints import (
     ConeGeometry,
     KeepInCones,
     _fiber_circles,
@@ -30,7 +30,7 @@ TWO_INSTRUMENTS = dict(
 
 
 def _margin_reference(geometry, sigma):
-    """Margins straight from SciPy's rotation, independent of attitude_core.gnc.mrp."""
+    """Margins straight from SciPy's rotation, independent of attitude_core.models.mrp."""
     c_bn = Rotation.from_mrp(sigma).as_matrix().swapaxes(-1, -2)
     b_n = np.einsum("...ki,nk->...ni", c_bn, geometry.boresights_body)
     cos = np.einsum("...ni,mi->...nm", b_n, geometry.directions_inertial)
@@ -178,7 +178,7 @@ KEEP_IN = dict(  # deliberately not unit: the geometry normalises
 
 def _keep_in_reference(sigma, cones=KEEP_IN):
     """gamma_k - angle(a_k in inertial axes, d_k), the inertial axis from SciPy's active
-    rotation of sigma_BN (R = C_BN^T), independent of attitude_core.gnc.mrp."""
+    rotation of sigma_BN (R = C_BN^T), independent of attitude_core.models.mrp."""
     a = cones["axes_body"] / np.linalg.norm(cones["axes_body"], axis=1, keepdims=True)
     d = cones["directions_inertial"]
     d = d / np.linalg.norm(d, axis=1, keepdims=True)
@@ -273,7 +273,7 @@ def test_dense_margin_of_a_one_sample_run_is_that_samples_margin():
     to interpolate: its dense margin is the exact margin of the one attitude."""
     from pathlib import Path
 
-    from attitude_core.config.scenario import load_scenario
+    from attitude_core.config.scenario_loader import load_scenario
     from attitude_core.record.metrics import dense_min_margin_deg
 
     sc = load_scenario(Path(__file__).resolve().parents[2] / "scenarios" / "case1.yaml")

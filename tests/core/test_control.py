@@ -3,9 +3,9 @@
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from attitude_core.gnc.control import PdGains, pd_torque, tracking_errors
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import dcm_from_mrp, relative
+from attitude_core.fsw.control.pd import PdGains, pd_torque, tracking_errors
+from attitude_core.models.mrp import dcm_from_mrp, relative
+from attitude_core.world.rigid_body import RigidBody
 
 J = np.diag([10.0, 10.0, 10.0])
 GAINS = PdGains.from_inertia(J)

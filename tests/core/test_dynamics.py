@@ -3,8 +3,8 @@
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from attitude_core.gnc.dynamics import RigidBody, state_derivative
-from attitude_core.gnc.mrp import dcm_from_mrp
+from attitude_core.models.mrp import dcm_from_mrp
+from attitude_core.world.rigid_body import RigidBody, state_derivative
 
 J = np.array([[12.0, 0.4, -0.2], [0.4, 9.0, 0.3], [-0.2, 0.3, 7.0]])
 

@@ -1,4 +1,4 @@
-"""Ephemerides and the two-body orbit (attitude_core.gnc.ephemeris) against independent
+"""Ephemerides and the two-body orbit (attitude_core.models.ephemeris) against independent
 knowledge: the March 2026 equinox, astropy's built-in ephemerides, the Moon's range of
 distances, Kepler's invariants, and the geometry of a 500 km orbit."""
 
@@ -17,7 +17,7 @@ from astropy.time import Time
 from astropy.utils import iers
 from astropy.utils.exceptions import AstropyWarning
 
-from attitude_core.gnc.ephemeris import (
+from attitude_core.models.ephemeris import (
     EARTH_RADIUS_KM,
     MOON_RADIUS_KM,
     MU_EARTH_KM3_S2,

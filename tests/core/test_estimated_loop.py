@@ -18,14 +18,16 @@ import numpy as np
 import pytest
 import yaml
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import ScenarioError, load_scenario, parse_scenario
+from attitude_core.assembly.guidance import guidance_from_scenario, prepare_guidance
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import load_scenario, parse_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc.control import PdGains, commanded_torque
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import principal_angle, relative
+from attitude_core.fsw.control.pd import PdGains, commanded_torque
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import principal_angle, relative
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_core.record.summary import summarize
+from attitude_core.world.rigid_body import RigidBody
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
@@ -147,7 +149,7 @@ def test_the_summary_reports_the_estimate(flown):
 
 def test_the_buffer_holds_the_knowledge():
     """The planner's buffer is the declared margin plus the settled 3-sigma."""
-    from attitude_core.gnc.fepf import buffer_deg
+    from attitude_core.assembly.guidance import buffer_deg
 
     plain = load_scenario(SCENARIOS / "case1.yaml")
     sensed = _with_sensors("case1", COARSE)
@@ -215,8 +217,6 @@ def test_the_guidance_arrives_on_raw_noisy_states(name, attitude_deg, rate_rad_s
     slew, and the true body ends near the goal, clear of every cone."""
     from scipy.spatial.transform import Rotation
 
-    from attitude_core.gnc.guidance import Guidance
-
     params = _params(name)
     params["sensors"] = {
         "seed": 1,
@@ -225,7 +225,7 @@ def test_the_guidance_arrives_on_raw_noisy_states(name, attitude_deg, rate_rad_s
     }
     sc = parse_scenario(params, name, SCENARIOS)
     rng = np.random.default_rng(0)
-    guidance = Guidance.from_scenario(sc)
+    guidance = guidance_from_scenario(sc)
     gains, limit = PdGains(sc.kp, sc.kd), sc.actuators.max_torque_nm
     body = RigidBody(sc.inertia_kgm2, sc.initial_mrp, sc.initial_rate_rad_s)
     sigma, omega, arrived = [], [], []
@@ -253,14 +253,12 @@ def test_an_estimated_start_flies_the_route_prepared_before_the_first_state():
     route planned while the simulator waits for the first torque), one beyond does not."""
     from scipy.spatial.transform import Rotation
 
-    from attitude_core.gnc.guidance import Guidance
-
     sc = _with_sensors("case1_wheels", COARSE)
-    prepared = Guidance.prepare(sc)
+    prepared = prepare_guidance(sc)
     first_fix = sc.knowledge.first_fix_3sigma_deg
     assert first_fix > 0.5  # 0.3 deg about x, 0.1 across: 3 sqrt(0.11) deg
     start = Rotation.from_mrp(np.array(sc.initial_mrp))
     for off_deg, taken in ((0.5 * first_fix, True), (2.0 * first_fix, False)):
         sigma_0 = (start * Rotation.from_rotvec([math.radians(off_deg), 0.0, 0.0])).as_mrp()
-        guidance = Guidance.from_scenario(sc, sigma_0=sigma_0, prepared=prepared)
+        guidance = guidance_from_scenario(sc, sigma_0=sigma_0, prepared=prepared)
         assert (guidance.route is prepared.initial_route) is taken

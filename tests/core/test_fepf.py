@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc.constraints import ConeGeometry
-from attitude_core.gnc.fepf import FepfPlanner, PlannerStatus, rotation_matrix
+from attitude_core.assembly.guidance import planner_from_scenario
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.fsw.guidance.fepf import FepfPlanner, PlannerStatus, rotation_matrix
+from attitude_core.models.constraints import ConeGeometry
 
 
 def test_rotation_matrix_is_eq9_rodrigues():
@@ -58,7 +59,7 @@ def _frame_rates(sc, outputs):
 @pytest.mark.parametrize("name", ["case1", "case2", "case1_paper", "case2_paper"])
 def test_paper_cases_plan_to_goal_outside_inflated_cones(name):
     sc = load_scenario(f"scenarios/{name}.yaml")
-    planner = FepfPlanner.from_scenario(sc)
+    planner = planner_from_scenario(sc)
     path, outputs = [planner.sigma_t], []
     for _ in range(sc.n_steps):
         outputs.append(planner.step())
@@ -76,7 +77,7 @@ def test_paper_cases_plan_to_goal_outside_inflated_cones(name):
 
 def test_improved_variant_ends_with_zero_target_rate_and_bounded_acceleration():
     sc = load_scenario("scenarios/case1.yaml")
-    planner = FepfPlanner.from_scenario(sc)
+    planner = planner_from_scenario(sc)
     outputs = [planner.step() for _ in range(sc.n_steps)]
     rates = _frame_rates(sc, outputs)
     accel = np.linalg.norm(np.diff(rates, axis=0), axis=1) / sc.dt_s
@@ -119,7 +120,7 @@ def test_goal_plane_rotation_escapes_head_on_minimum():
 
 def test_reset_resumes_from_given_attitude():
     sc = load_scenario("scenarios/case2.yaml")
-    planner = FepfPlanner.from_scenario(sc)
+    planner = planner_from_scenario(sc)
     for _ in range(50):
         planner.step()
     here = np.array([0.25, 0.1, 0.0])
@@ -131,7 +132,7 @@ def test_reset_resumes_from_given_attitude():
 
 def test_restart_inside_safety_buffer_backs_out_and_arrives():
     sc = load_scenario("scenarios/case1.yaml")
-    planner = FepfPlanner.from_scenario(sc)
+    planner = planner_from_scenario(sc)
     exact = sc.cone_geometry()
     # A measured attitude 1 deg outside a cone: inside the planner's 2 deg buffer.
     rng = np.random.default_rng(7)

@@ -1,4 +1,4 @@
-"""Fuzzy inference (attitude_core.gnc.fuzzy): exactness against scikit-fuzzy, lookup-table
+"""Fuzzy inference (attitude_core.fsw.guidance.fuzzy): exactness against scikit-fuzzy, lookup-table
 accuracy, design properties of the packaged FIS and validation errors."""
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from attitude_core.gnc.fuzzy import (
+from attitude_core.fsw.guidance.fuzzy import (
     FisError,
     FisTable,
     MamdaniFis,
@@ -34,7 +34,7 @@ PACKAGED = [
 
 
 def _raw(name: str) -> dict:
-    """The packaged YAML parsed independently of attitude_core.gnc.fuzzy."""
+    """The packaged YAML parsed independently of attitude_core.fsw.guidance.fuzzy."""
     text = (resources.files("attitude_core") / "data" / name).read_text(encoding="utf-8")
     return yaml.safe_load(text)
 
@@ -46,7 +46,7 @@ def _fis(name: str) -> MamdaniFis:
 
 @functools.cache
 def _table(name: str) -> FisTable:
-    return _fis(name).table()
+    return FisTable.build(_fis(name))
 
 
 # ------------------------------------------------------------- scikit-fuzzy reference
@@ -316,12 +316,12 @@ def test_table_clips_returns_float_and_rejects_nan():
 
 def test_regular_table_without_refinement():
     fis = _fis("fis_attractive.yaml")
-    tab = fis.table(21, tol=None)
+    tab = FisTable.build(fis, 21, tol=None)
     assert tab.shape == (21, 21)
     np.testing.assert_allclose(tab.axes[0], np.linspace(0, 1, 21))
     # a coarse regular grid is measurably worse than the refined default
     assert tab.max_abs_error_estimate > _table("fis_attractive.yaml").max_abs_error_estimate
-    assert fis.table((5, 9), tol=None).shape == (5, 9)
+    assert FisTable.build(fis, (5, 9), tol=None).shape == (5, 9)
 
 
 def test_table_needs_one_or_two_inputs():
@@ -331,7 +331,7 @@ def test_table_needs_one_or_two_inputs():
     fis = load_fis(spec)
     assert math.isfinite(fis.evaluate(0.1, 2.0, 0.3))
     with pytest.raises(FisError, match="1 or 2 inputs"):
-        fis.table()
+        FisTable.build(fis)
     with pytest.raises(TypeError):
         FisTable()
 

@@ -1,4 +1,4 @@
-"""The disk cache of the FIS lookup tables (attitude_core.gnc.fuzzy.table_cache): a
+"""The disk cache of the FIS lookup tables (attitude_core.fsw.guidance.fuzzy.table_cache): a
 table read back is the built one bit for bit, a bad entry is rebuilt, the key follows
 the definition, and a cache that cannot be written never fails a planner."""
 
@@ -9,8 +9,14 @@ import copy
 import numpy as np
 import pytest
 
-from attitude_core.gnc.fuzzy import MamdaniFis, load_fis, lookup_table, table_cache
-from attitude_core.gnc.fuzzy import table as table_module
+from attitude_core.fsw.guidance.fuzzy import (
+    FisTable,
+    MamdaniFis,
+    load_fis,
+    lookup_table,
+    table_cache,
+)
+from attitude_core.fsw.guidance.fuzzy import table as table_module
 
 NAMES = ("fis_attractive.yaml", "fis_repulsive.yaml")  # 1 and 2 inputs
 
@@ -32,10 +38,10 @@ def _forget():
 
 
 def _no_build(monkeypatch):
-    def refuse(self, *args, **kwargs):
+    def refuse(*args, **kwargs):
         raise AssertionError("the table was built, not read from the cache")
 
-    monkeypatch.setattr(MamdaniFis, "table", refuse)
+    monkeypatch.setattr(FisTable, "build", staticmethod(refuse))
 
 
 def _inputs(table, n=2000, seed=3):
@@ -143,7 +149,7 @@ def test_an_unwritable_cache_is_skipped(tmp_path, monkeypatch):
     try:
         fis = load_fis("fis_repulsive.yaml")
         table = lookup_table(fis)
-        reference = fis.table()
+        reference = FisTable.build(fis)
         np.testing.assert_array_equal(table.values, reference.values)
     finally:
         _forget()

@@ -10,17 +10,23 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import ActuatorLimits, load_scenario
+from attitude_core.assembly.guidance import guidance_from_scenario, planner_from_scenario
+from attitude_core.config.scenario import ActuatorLimits
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc.actuators import clip_to_bound
-from attitude_core.gnc.control import PdGains, commanded_torque
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.fepf import FepfPlanner
-from attitude_core.gnc.guidance import GYRO_SHARE, RATE_USE, Guidance, GuidanceLimits, time_bound_s
-from attitude_core.gnc.mrp import principal_angle, relative
+from attitude_core.fsw.control.pd import PdGains, commanded_torque
+from attitude_core.fsw.guidance.guidance import (
+    GYRO_SHARE,
+    RATE_USE,
+    GuidanceLimits,
+    time_bound_s,
+)
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import principal_angle, relative
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_core.record.summary import summarize
+from attitude_core.world.actuator import clip_to_bound
+from attitude_core.world.rigid_body import RigidBody
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / "scenarios"
@@ -33,7 +39,7 @@ def fly(scenario, period_s, plant_bound_nm="declared", sim_time_s=None):
     plant's own per-axis clip (default: the scenario's)."""
     sim_time_s = scenario.sim_time_s if sim_time_s is None else sim_time_s
     bound = scenario.actuators.max_torque_nm if plant_bound_nm == "declared" else plant_bound_nm
-    guidance = Guidance.from_scenario(scenario)
+    guidance = guidance_from_scenario(scenario)
     gains = PdGains(scenario.kp, scenario.kd)
     body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
     rows = []
@@ -128,8 +134,8 @@ def test_unlimited_lockstep_target_is_the_fepf_target(name):
     FEPF's own targets."""
     sc = load_scenario(SCENARIOS / name)
     sc = dataclasses.replace(sc, planner=dataclasses.replace(sc.planner, global_route=False))
-    plain = FepfPlanner.from_scenario(sc)
-    guidance = Guidance.from_scenario(sc)
+    plain = planner_from_scenario(sc)
+    guidance = guidance_from_scenario(sc)
     for k in range(600):
         expected = plain.step()
         got = guidance.update(k * sc.dt_s, expected.sigma_t, expected.omega_t).target
@@ -224,7 +230,7 @@ def test_weaker_plant_never_gets_arrived_off_the_goal(plant_nm):
     # The target never runs away from the body: each step moves it by at most the
     # governor's factor times the rate bound, and the factor falls to zero at twice the
     # governor's bound (a body that overshoots its target is its own doing).
-    hold = Guidance.from_scenario(sc).hold_deg
+    hold = guidance_from_scenario(sc).hold_deg
     factors = np.array([o.speed_factor for o in run["out"]])
     errors = np.array([o.tracking_error_deg for o in run["out"]])
     assert errors.max() > hold and factors.min() < 1.0  # the plant did fall behind
@@ -248,7 +254,7 @@ def test_arrival_waits_for_the_body():
     """The target reaches the goal long before a slow body: status stays tracking until
     the body is within both tolerances."""
     sc = load_scenario(SCENARIOS / "case2.yaml")
-    guidance = Guidance.from_scenario(sc)
+    guidance = guidance_from_scenario(sc)
     goal = sc.desired_mrp
     t = 0.0
     # Drive the target to the goal with a body that follows it exactly.
@@ -270,7 +276,7 @@ def test_arrival_waits_for_the_body():
 
 
 def test_a_repeated_or_older_state_time_is_refused():
-    guidance = Guidance.from_scenario(load_scenario(SCENARIOS / "case1.yaml"))
+    guidance = guidance_from_scenario(load_scenario(SCENARIOS / "case1.yaml"))
     sigma = guidance.planner.sigma_t
     guidance.update(0.0, sigma, np.zeros(3))
     guidance.update(0.1, sigma, np.zeros(3))
@@ -298,7 +304,7 @@ def test_a_plant_at_a_tenth_of_its_declared_torque_is_derated_and_stays_safe():
     assert derating[0] == 1.0 and derating[-1] < 0.2
     assert np.all(np.diff(derating) <= 0.0)  # only ever lowered
     errors = np.array([o.tracking_error_deg for o in run["out"]])
-    assert errors.max() <= 2.0 * Guidance.from_scenario(sc).hold_deg
+    assert errors.max() <= 2.0 * guidance_from_scenario(sc).hold_deg
     margin, _ = dense_min_margin_deg(sc.cone_geometry(), run["t"], run["sigma"], run["omega"])
     assert margin > 0.0
     err = goal_error_deg(sc, run["sigma"])

@@ -1,42 +1,53 @@
-"""The compiled per-step kernels (gnc/_kernels.pyx) against their Python references:
-on the paper's cases and on random states (property tests), and the whole closed loop
-of Case 1 and Case 2 run with each (``ATTITUDE_KERNELS``)."""
+"""The per-step kernels in both forms, compiled (kernels/*.pxi) and the Python references,
+CPython's ``heapq`` / ``_heapq`` way: every check of :class:`KernelChecks` runs once with
+each form (:class:`TestCompiledKernels`, :class:`TestPythonKernels`), on the paper's
+cases and on random states (property tests); the module's own tests compare the two
+forms to the bit, the whole closed loop of Case 1 and Case 2 included
+(``attitude-offline`` with ``ATTITUDE_KERNELS=compiled`` and ``=python``)."""
 
+import functools
 import json
 import math
 import os
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc import kernels, mrp
-from attitude_core.gnc.actuators import scale_to_bound
-from attitude_core.gnc.constraints import ConeGeometry, KeepInCones
-from attitude_core.gnc.control import PdGains, commanded_torque, pd_torque
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.guidance import Guidance
-from tests.support import ROOT
-
-K = kernels.compiled
-pytestmark = pytest.mark.skipif(
-    K is None and os.environ.get(kernels.ENV) == "python",
-    reason="the Python reference was selected (ATTITUDE_KERNELS=python)",
-)
+from attitude_core import kernels
+from attitude_core.assembly.guidance import guidance_from_scenario
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.fsw.control.pd import PdGains, commanded_torque, pd_torque
+from attitude_core.fsw.control.saturation import scale_to_bound
+from attitude_core.models import mrp
+from attitude_core.models.constraints import ConeGeometry, KeepInCones
+from attitude_core.world.rigid_body import RigidBody
+from tests.support import MODE_SETTINGS, ROOT, KernelModeTests
 
 finite = st.floats(-1.0, 1.0, allow_nan=False)
 vec = st.tuples(finite, finite, finite)
 rate = st.tuples(*[st.floats(-0.5, 0.5, allow_nan=False)] * 3)
 CASES = ("case1", "case2", "keep_in", "two_instruments", "leo_two_instruments")
+N_RANDOM = 40
+N_GEOMETRIES = len(CASES) + N_RANDOM
+needs_compiled = pytest.mark.skipif(
+    kernels.built() is None, reason="the compiled kernels are not built (run tools/bootstrap)"
+)
 
 
+@pytest.mark.skipif(
+    os.environ.get(kernels.ENV) == "python",
+    reason="the Python reference was selected (ATTITUDE_KERNELS=python)",
+)
 def test_the_compiled_kernels_are_built_and_used():
     """The install builds them: a test run never silently measures the Python path."""
-    assert K is not None, "attitude_core.gnc._kernels is not built (run tools/bootstrap)"
+    assert kernels.compiled is not None, (
+        "attitude_core.kernels._kernels is not built (run tools/bootstrap)"
+    )
     assert kernels.ACTIVE == "compiled"
 
 
@@ -46,48 +57,6 @@ def _inertia(rng: np.random.Generator) -> np.ndarray:
     moments = np.array([a, b, rng.uniform(b - a + 0.5, a + b - 0.1)])
     q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
     return q @ np.diag(moments) @ q.T
-
-
-@settings(max_examples=300, deadline=None)
-@given(vec, rate, vec, rate, st.integers(0, 2**32 - 1), st.booleans())
-def test_pd_command_matches_eq11_and_the_bound(sigma, omega, sigma_t, omega_t, seed, bounded):
-    j = _inertia(np.random.default_rng(seed))
-    gains = PdGains.from_inertia(j, 5.5, 3.1)
-    bound = (0.05, 0.02, 0.08) if bounded else None
-    reference, saturated = scale_to_bound(pd_torque(gains, sigma, omega, sigma_t, omega_t), bound)
-    u1, u2, u3, sat = K.pd_command(
-        gains.kp_flat, gains.kd_flat, sigma, omega, sigma_t, omega_t, bound
-    )
-    np.testing.assert_allclose((u1, u2, u3), reference, rtol=1e-12, atol=1e-12)
-    if bound is not None and abs(float(np.max(np.abs(reference) / bound)) - 1.0) > 1e-12:
-        assert sat == saturated
-    np.testing.assert_array_equal(
-        commanded_torque(gains, sigma, omega, sigma_t, omega_t, bound), (u1, u2, u3)
-    )
-
-
-@settings(max_examples=500, deadline=None)
-@given(vec, vec)
-def test_mrp_helpers_are_the_references_to_the_bit(sigma_a, sigma_b):
-    assert mrp.angle_between_single(sigma_a, sigma_b) == mrp.angle_between_single_reference(
-        sigma_a, sigma_b
-    )
-    assert mrp.relative_single(sigma_a, sigma_b) == mrp.relative_single_reference(sigma_a, sigma_b)
-    assert mrp.angle_between_single(sigma_a, sigma_a) == 0.0
-
-
-@settings(max_examples=300, deadline=None)
-@given(vec, rate, st.tuples(*[st.floats(-0.2, 0.2)] * 3), st.integers(0, 2**32 - 1))
-def test_rk4_step_is_the_reference_to_the_bit(sigma, omega, torque, seed):
-    j = _inertia(np.random.default_rng(seed))
-    a = RigidBody(j, sigma, omega)
-    b = RigidBody(j, sigma, omega)
-    for dt in (0.1, 0.01, 0.5):
-        a.step(torque, dt)
-        b.step_reference(torque, dt)
-        np.testing.assert_array_equal(a.sigma_bn, b.sigma_bn)
-        np.testing.assert_array_equal(a.omega_b, b.omega_b)
-    assert np.linalg.norm(a.sigma_bn) <= 1.0  # the shadow switch, eq. 2
 
 
 def _random_geometry(rng: np.random.Generator) -> ConeGeometry:
@@ -107,47 +76,17 @@ def _random_geometry(rng: np.random.Generator) -> ConeGeometry:
     )
 
 
-def _geometries() -> list[ConeGeometry]:
-    rng = np.random.default_rng(7)
-    out = [Guidance.from_scenario(load_scenario(ROOT / f"scenarios/{c}.yaml")).planner.geometry
-           for c in CASES]  # fmt: skip
-    return out + [_random_geometry(rng) for _ in range(40)]
-
-
-GEOMETRIES = _geometries()
-
-
-@pytest.mark.parametrize("index", range(len(GEOMETRIES)))
-def test_margins_and_rim_search_match_the_reference(index):
-    g = GEOMETRIES[index]
-    g.rim_circles  # noqa: B018 -- built: the kernel's rim search with them
-    assert g._kernel is not None
-    rng = np.random.default_rng(index)
-    sig = rng.uniform(-1.0, 1.0, (300, 3))
-    sig = np.vstack([sig, sig[:20] * 1e-9, np.zeros((1, 3))])
-    for a, b in zip(sig, np.roll(sig, 1, axis=0), strict=True):
-        assert g.min_margin_deg_single(a) == g.min_margin_deg_single_reference(a)
-        arc, arc_ref = (
-            g.arc_min_margin_deg_single(a, b),
-            g.arc_min_margin_deg_single_reference(a, b),
-        )
-        assert arc == arc_ref
-        near = a + rng.normal(scale=1e-7, size=3)  # short arcs: the closed form's edge
-        assert g.arc_min_margin_deg_single(a, near) == (
-            g.arc_min_margin_deg_single_reference(a, near)
-        )
-        idx, d2, dm, dp, jm, jp = g._kernel.closest_rim(a)
-        ridx, rd2, rdm, rdp, rjm, rjp = g.closest_rim_reference(a)
-        # Squared distances are differences of O(1) terms: equal to 1e-12 absolute.
-        np.testing.assert_allclose((d2, dm, dp), (rd2, rdm, rdp), rtol=0, atol=1e-12)
-        if idx != ridx:  # a tie to rounding only
-            assert abs(g.rim_distances_sq(a)[idx] - rd2) <= 1e-12
-        else:
-            assert (jm, jp) == (rjm, rjp)
-    # The exact margin is the vectorised one too.
-    np.testing.assert_allclose(
-        [g.min_margin_deg_single(s) for s in sig], g.min_margin_deg(sig), atol=1e-9
-    )
+@functools.cache
+def geometries(mode: str) -> list[ConeGeometry]:
+    """The paper's cases' and random geometries, made with the ``mode`` kernels (the same
+    constraints in either mode)."""
+    with kernels.selected(mode):
+        rng = np.random.default_rng(7)
+        out = [guidance_from_scenario(load_scenario(ROOT / f"scenarios/{c}.yaml")).planner.geometry
+               for c in CASES]  # fmt: skip
+        out += [_random_geometry(rng) for _ in range(N_RANDOM)]
+    assert len(out) == N_GEOMETRIES
+    return out
 
 
 def _full_scan(circles: np.ndarray, sigma) -> tuple[int, float]:
@@ -169,86 +108,260 @@ def _full_scan(circles: np.ndarray, sigma) -> tuple[int, float]:
     return best_i, best
 
 
-@pytest.mark.parametrize("index", range(0, len(GEOMETRIES), 3))
-def test_the_pruned_rim_search_is_the_full_scan_to_the_bit(index):
-    """The rim search skips rims and circles on an angle bound (``ConeKernel._nearest``):
-    its answer is the scan of every circle's, index and distance, at random attitudes,
-    on and near the rims (where the bound is tightest) and at the origin."""
-    g = GEOMETRIES[index]
-    g.rim_circles  # noqa: B018
-    circles = np.column_stack([g._centres, g._normals, g._c_dot_c, g._c_dot_n, g._r2, g._two_radii])
-    rng = np.random.default_rng(100 + index)
-    rims = g._centres[rng.integers(0, len(g._centres), 40)]  # circle centres: far inside
-    pick = rng.integers(0, len(g._centres), 60)  # points on circles, and just off them
-    normal = g._normals[pick]
-    radial = np.cross(normal, rng.normal(size=(60, 3)))
-    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
-    on = g._centres[pick] + g._radii[pick, None] * radial
-    on = on[np.linalg.norm(on, axis=1) < 2.0]
-    off = on + rng.normal(scale=1e-3, size=on.shape)
-    points = np.vstack([rng.uniform(-1.0, 1.0, (100, 3)), rims, on, off, np.zeros((1, 3))])
-    for sigma in points:
-        idx, d2, *_ = g._kernel.closest_rim(sigma)
-        assert (idx, d2) == _full_scan(circles, sigma)
+class KernelChecks(KernelModeTests):
+    """What each form of the free kernels and of a geometry's queries must do."""
+
+    @settings(max_examples=300, **MODE_SETTINGS)
+    @given(vec, rate, vec, rate, st.integers(0, 2**32 - 1), st.booleans())
+    def test_pd_command_matches_eq11_and_the_bound(
+        self, sigma, omega, sigma_t, omega_t, seed, bounded
+    ):
+        j = _inertia(np.random.default_rng(seed))
+        gains = PdGains.from_inertia(j, 5.5, 3.1)
+        bound = (0.05, 0.02, 0.08) if bounded else None
+        reference, saturated = scale_to_bound(
+            pd_torque(gains, sigma, omega, sigma_t, omega_t), bound
+        )
+        u1, u2, u3, sat = self.K.pd_command(
+            gains.kp_flat, gains.kd_flat, sigma, omega, sigma_t, omega_t, bound
+        )
+        np.testing.assert_allclose((u1, u2, u3), reference, rtol=1e-12, atol=1e-12)
+        if bound is not None and abs(float(np.max(np.abs(reference) / bound)) - 1.0) > 1e-12:
+            assert sat == saturated
+        if bound is not None:
+            assert np.all(np.abs((u1, u2, u3)) <= np.asarray(bound) * (1.0 + 1e-12))
+        np.testing.assert_array_equal(
+            commanded_torque(gains, sigma, omega, sigma_t, omega_t, bound), (u1, u2, u3)
+        )
+
+    @settings(max_examples=500, **MODE_SETTINGS)
+    @given(vec, vec)
+    def test_mrp_helpers_are_the_references_to_the_bit(self, sigma_a, sigma_b):
+        k = self.K
+        angle = k.angle_between(sigma_a, sigma_b)
+        assert angle == mrp.angle_between_single_reference(sigma_a, sigma_b)
+        relative = k.relative(sigma_a, sigma_b)
+        assert relative == mrp.relative_single_reference(sigma_a, sigma_b)
+        assert k.angle_between(sigma_a, sigma_a) == 0.0
+        assert 0.0 <= angle <= math.pi
+        assert math.hypot(*relative) <= 1.0 + 1e-12  # the short way
+
+    @settings(max_examples=300, **MODE_SETTINGS)
+    @given(vec, rate, st.tuples(*[st.floats(-0.2, 0.2)] * 3), st.integers(0, 2**32 - 1))
+    def test_rk4_step_is_the_reference_to_the_bit(self, sigma, omega, torque, seed):
+        j = _inertia(np.random.default_rng(seed))
+        a = RigidBody(j, sigma, omega)  # made with this form: its step is this form's
+        b = RigidBody(j, sigma, omega)
+        for dt in (0.1, 0.01, 0.5):
+            a.step(torque, dt)
+            b.step_reference(torque, dt)
+            np.testing.assert_array_equal(a.sigma_bn, b.sigma_bn)
+            np.testing.assert_array_equal(a.omega_b, b.omega_b)
+        assert np.linalg.norm(a.sigma_bn) <= 1.0  # the shadow switch, eq. 2
+
+    def _rim_search(self, g: ConeGeometry):
+        """This form's rim search: the compiled kernel's, or the reference's."""
+        kernel = g.compiled_kernel(rims=True)
+        assert (kernel is not None) == (self.mode == "compiled")
+        return g.closest_rim_reference if kernel is None else kernel.closest_rim
+
+    @pytest.mark.parametrize("index", range(N_GEOMETRIES))
+    def test_margins_and_rim_search_match_the_reference(self, index):
+        g = geometries(self.mode)[index]
+        search = self._rim_search(g)
+        rng = np.random.default_rng(index)
+        sig = rng.uniform(-1.0, 1.0, (300, 3))
+        sig = np.vstack([sig, sig[:20] * 1e-9, np.zeros((1, 3))])
+        for a, b in zip(sig, np.roll(sig, 1, axis=0), strict=True):
+            assert g.min_margin_deg_single(a) == g.min_margin_deg_single_reference(a)
+            arc, arc_ref = (
+                g.arc_min_margin_deg_single(a, b),
+                g.arc_min_margin_deg_single_reference(a, b),
+            )
+            assert arc == arc_ref
+            near = a + rng.normal(scale=1e-7, size=3)  # short arcs: the closed form's edge
+            assert g.arc_min_margin_deg_single(a, near) == (
+                g.arc_min_margin_deg_single_reference(a, near)
+            )
+            # The nearest circle, its squared distance and its neighbours': the same bits.
+            idx, d2, dm, dp, jm, jp = search(a)
+            assert (idx, d2, dm, dp, jm, jp) == g.closest_rim_reference(a)
+            assert d2 == g.rim_distances_sq(a)[idx] == g.rim_distances_sq(a).min()
+        # The exact margin is the vectorised one too.
+        np.testing.assert_allclose(
+            [g.min_margin_deg_single(s) for s in sig], g.min_margin_deg(sig), atol=1e-9
+        )
+
+    @pytest.mark.parametrize("index", range(0, N_GEOMETRIES, 3))
+    def test_the_rim_search_is_the_full_scan_to_the_bit(self, index):
+        """The compiled rim search skips rims and circles on an angle bound
+        (``ConeKernel._nearest``), the reference scans them all: either answer is the scan
+        of every circle's, index and distance, at random attitudes, on and near the rims
+        (where the bound is tightest) and at the origin."""
+        g = geometries(self.mode)[index]
+        search = self._rim_search(g)
+        circles = np.column_stack(
+            [g._centres, g._normals, g._c_dot_c, g._c_dot_n, g._r2, g._two_radii]
+        )
+        rng = np.random.default_rng(100 + index)
+        rims = g._centres[rng.integers(0, len(g._centres), 40)]  # circle centres: far inside
+        pick = rng.integers(0, len(g._centres), 60)  # points on circles, and just off them
+        normal = g._normals[pick]
+        radial = np.cross(normal, rng.normal(size=(60, 3)))
+        radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+        on = g._centres[pick] + g._radii[pick, None] * radial
+        on = on[np.linalg.norm(on, axis=1) < 2.0]
+        off = on + rng.normal(scale=1e-3, size=on.shape)
+        points = np.vstack([rng.uniform(-1.0, 1.0, (100, 3)), rims, on, off, np.zeros((1, 3))])
+        for sigma in points:
+            idx, d2, *_ = search(sigma)
+            assert (idx, d2) == _full_scan(circles, sigma)
+
+    def test_the_obstacle_query_is_the_reference(self):
+        """The closest obstacle (rim search, parabola and closest point) against
+        ``closest_obstacle_single_reference``, to the bit."""
+        for g in geometries(self.mode)[::2]:
+            g.rim_circles  # noqa: B018 -- built: the query runs the rim search
+            rng = np.random.default_rng(len(g._centres))
+            for sigma in rng.uniform(-1.0, 1.0, (100, 3)):
+                got = g.closest_obstacle_single(sigma)
+                assert got == g.closest_obstacle_single_reference(sigma)
+                d, direction, point, pair = got
+                inside = g.min_margin_deg_single(sigma) < g.inflation_deg
+                assert (math.copysign(1.0, d) < 0.0) == inside  # negative inside a region
+                assert 0 <= pair < g.n_constraints
+                query = g.closest_obstacle(sigma)
+                assert query.distance == d and query.constraint == pair
+                assert tuple(query.direction) == direction
 
 
-def test_the_compiled_obstacle_query_is_the_reference():
-    """The closest obstacle from the compiled rim search, parabola and closest point
-    against ``closest_obstacle_single_reference`` (the rim distances differ from NumPy's
-    matrix product in the last bits only)."""
-    for g in GEOMETRIES[::2]:
-        rng = np.random.default_rng(len(g._centres) if g._rims_built else 0)
-        for sigma in rng.uniform(-1.0, 1.0, (100, 3)):
-            d, direction, point, pair = g.closest_obstacle_single(sigma)
-            rd, rdirection, rpoint, rpair = g.closest_obstacle_single_reference(sigma)
-            if pair != rpair:  # a tie to rounding between two rims
-                assert abs(d - rd) <= 1e-9
-                continue
-            np.testing.assert_allclose(d, rd, rtol=0, atol=1e-9)
-            np.testing.assert_allclose(direction, rdirection, rtol=0, atol=1e-6)
-            np.testing.assert_allclose(point, rpoint, rtol=0, atol=1e-9)
-            query = g.closest_obstacle(sigma)
-            assert query.distance == d and query.constraint == pair
-            assert tuple(query.direction) == direction
+@needs_compiled
+class TestCompiledKernels(KernelChecks):
+    mode = "compiled"
+
+
+class TestPythonKernels(KernelChecks):
+    mode = "python"
+
+
+# -- the two forms against each other ----------------------------------------------------
+
+
+@needs_compiled
+@settings(max_examples=500, deadline=None)
+@given(vec, vec, vec, rate, rate, st.booleans())
+def test_the_free_kernels_of_both_forms_agree_to_the_bit(a, b, c, wa, wb, bounded):
+    """The compiled free functions, and the process's MRP helpers, against the Python
+    references: the same bits."""
+    from tests.support import kernel_functions
+
+    compiled, python = kernel_functions("compiled"), kernel_functions("python")
+    assert compiled.angle_between(a, b) == python.angle_between(a, b)
+    assert mrp.angle_between_single(a, b) == mrp.angle_between_single_reference(a, b)
+    assert compiled.relative(a, b) == python.relative(a, b)
+    assert mrp.relative_single(a, b) == mrp.relative_single_reference(a, b)
+    gains = PdGains.from_inertia(np.diag([3.0, 5.0, 4.0]) + 0.3, 5.5, 3.1)
+    bound = (0.05, 0.02, 0.08) if bounded else None
+    args = (gains.kp_flat, gains.kd_flat, a, wa, c, wb, bound)
+    assert compiled.pd_command(*args) == python.pd_command(*args)
+
+
+@needs_compiled
+@pytest.mark.parametrize("index", range(0, N_GEOMETRIES, 2))
+def test_a_geometry_of_either_form_answers_alike_to_the_bit(index):
+    """The same constraints made with each form: the same margins, arcs and closest
+    obstacles, bit for bit."""
+    a, b = geometries("compiled")[index], geometries("python")[index]
+    assert a.compiled_kernel() is not None and b.compiled_kernel() is None
+    rng = np.random.default_rng(300 + index)
+    sig = rng.uniform(-1.0, 1.0, (120, 3))
+    for s, t in zip(sig, np.roll(sig, 1, axis=0), strict=True):
+        assert a.min_margin_deg_single(s) == b.min_margin_deg_single(s)
+        assert a.arc_min_margin_deg_single(s, t) == b.arc_min_margin_deg_single(s, t)
+        assert a.closest_obstacle_single(s) == b.closest_obstacle_single(s)
 
 
 _LOOP = """
-import json, sys
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc import kernels, mrp
+import sys
+import numpy as np
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core import kernels
 r = run_closed_loop(load_scenario(sys.argv[1]))
-print(json.dumps({"active": kernels.ACTIVE, "sigma": r.sigma_bn.tolist(),
-    "omega": r.omega_b.tolist(), "torque": r.torque_b.tolist(), "sigma_t": r.sigma_t.tolist(),
-    "omega_t": r.omega_t.tolist(), "status": r.planner_status.tolist()}))
+np.savez(sys.argv[2], sigma=r.sigma_bn, omega=r.omega_b, torque=r.torque_b, sigma_t=r.sigma_t,
+    omega_t=r.omega_t, d_obs=r.obstacle_distance_mrp, status=r.planner_status)
+print(kernels.ACTIVE)
 """
+ATTITUDE_OFFLINE = str(Path(sys.prefix) / "bin" / "attitude-offline")
+TIMING = {"wall_time_s", "planner_step_us_median", "planner_step_us_p99"}
+"""The summary's wall-clock fields: the only ones that may differ between two runs."""
 
 
-def _loop(scenario: str, choice: str) -> dict:
+def _run(scenario: str, choice: str, out) -> tuple[dict, bytes, dict]:
+    """The closed loop of ``scenario`` with the ``choice`` kernels, in subprocesses: its
+    arrays (``run_closed_loop``), and ``attitude-offline``'s timeseries.csv and summary."""
     env = dict(os.environ, **{kernels.ENV: choice})
-    out = subprocess.run(
-        [sys.executable, "-c", _LOOP, str(ROOT / f"scenarios/{scenario}.yaml")],
+    path = str(ROOT / f"scenarios/{scenario}.yaml")
+    arrays = out / f"{choice}.npz"
+    done = subprocess.run(
+        [sys.executable, "-c", _LOOP, path, str(arrays)],
         env=env, capture_output=True, text=True, check=True,
     )  # fmt: skip
-    return json.loads(out.stdout)
+    assert done.stdout.strip() == choice
+    run_dir = out / choice
+    subprocess.run(
+        [ATTITUDE_OFFLINE, path, "--out", str(run_dir), "--quiet"],
+        env=env, capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    with np.load(arrays) as data:
+        record = {k: data[k].tobytes() for k in data.files}
+    summary = json.loads((run_dir / "summary.json").read_text())
+    return record, (run_dir / "timeseries.csv").read_bytes(), summary
 
 
+@needs_compiled
 @pytest.mark.parametrize("scenario", ["case1", "case2"])
-def test_closed_loop_is_the_reference_loop_within_1e12(scenario):
-    """The whole run, compiled against the Python reference: the same statuses at every
-    step and states within 1e-12 (the PD law's sums round in another order)."""
-    compiled, reference = _loop(scenario, "compiled"), _loop(scenario, "python")
-    assert (compiled["active"], reference["active"]) == ("compiled", "python")
-    assert compiled["status"] == reference["status"]
-    for key in ("sigma", "omega", "torque", "sigma_t", "omega_t"):
-        np.testing.assert_allclose(compiled[key], reference[key], rtol=0, atol=1e-12, err_msg=key)
+def test_the_closed_loop_is_the_same_to_the_bit_with_either_form(scenario, tmp_path):
+    """The whole run, compiled against the Python references (``ATTITUDE_KERNELS``, each
+    in its own process): every array of the record equal to the bit (so the same status
+    at every step), and ``attitude-offline``'s ``timeseries.csv`` byte for byte, its
+    summary but for the wall-clock fields."""
+    compiled, csv_c, summary_c = _run(scenario, "compiled", tmp_path)
+    python, csv_p, summary_p = _run(scenario, "python", tmp_path)
+    assert compiled.keys() == python.keys()
+    for key in compiled:
+        assert compiled[key] == python[key], key
+    assert csv_c == csv_p
+    assert summary_c.keys() >= TIMING
+    assert {k: v for k, v in summary_c.items() if k not in TIMING} == {
+        k: v for k, v in summary_p.items() if k not in TIMING
+    }
 
 
 def test_a_bad_kernel_choice_is_named():
     env = dict(os.environ, **{kernels.ENV: "fortran"})
     out = subprocess.run(
-        [sys.executable, "-c", "import attitude_core.gnc.kernels"],
+        [sys.executable, "-c", "import attitude_core.kernels"],
         env=env, capture_output=True, text=True,
     )  # fmt: skip
     assert out.returncode != 0
     assert "ATTITUDE_KERNELS='fortran'" in out.stderr and "expected" in out.stderr
+    with (
+        pytest.raises(ValueError, match="expected 'compiled' or 'python'"),
+        kernels.selected("fortran"),
+    ):
+        pass
+
+
+def test_a_selection_holds_for_its_block_and_what_is_made_in_it():
+    before = kernels.compiled, kernels.ACTIVE
+    with kernels.selected("python") as module:
+        assert module is None and kernels.compiled is None and kernels.ACTIVE == "python"
+        body = RigidBody(np.eye(3), (0.1, 0.0, 0.0), (0.0, 0.1, 0.0))
+        g = geometries("python")[0]
+    assert (kernels.compiled, kernels.ACTIVE) == before
+    assert g.compiled_kernel(rims=True) is None  # still the references
+    ref = RigidBody(np.eye(3), (0.1, 0.0, 0.0), (0.0, 0.1, 0.0))
+    body.step((0.01, 0.0, 0.0), 0.1)
+    ref.step_reference((0.01, 0.0, 0.0), 0.1)
+    assert body.sigma_bn.tobytes() == ref.sigma_bn.tobytes()

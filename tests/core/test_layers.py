@@ -1,144 +1,174 @@
-"""The package layout as the architecture doc draws it (docs/architecture.md): which
-part of attitude_core may import which, no ROS below the node shells, thin shells, short
-test files. Read from the sources with ``ast``, nothing imported."""
+"""The package layout as the architecture doc draws it (docs/architecture.md): the
+import-linter contracts of pyproject.toml (``lint-imports`` in tools/test enforces them)
+written out in the doc word for word, every core subpackage in a layer and in the doc,
+no import circle anywhere in ``src/`` (an AST graph of every import, independent of
+import-linter), thin node shells, short test files. Read from the sources with ``ast``,
+nothing imported."""
 
 from __future__ import annotations
 
 import ast
 import importlib.util
+import tomllib
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-CORE = ROOT / "src" / "attitude_core" / "attitude_core"
-TOOLS = ROOT / "src" / "attitude_tools" / "attitude_tools"
-
-# What each part of attitude_core may import at run time (imports under TYPE_CHECKING
-# are type information only). "yamlio" and "closed_loop" are top-level modules.
-ALLOWED = {
-    "yamlio": set(),
-    "gnc": {"gnc", "contract.status", "yamlio"},
-    "config": {"config", "gnc", "contract.status", "contract.time_mode", "yamlio"},
-    "contract": {"contract", "config"},
-    "runtime": {"runtime", "gnc", "config", "contract"},
-    "record": {"record", "gnc", "config", "contract"},
-    "closed_loop": {"gnc", "config", "contract", "record"},
-}
+SRC = ROOT / "src"
+CORE = SRC / "attitude_core" / "attitude_core"
+ARCHITECTURE = ROOT / "docs" / "architecture.md"
 SHELLS = [
     "attitude_planner/attitude_planner/planner_node.py",
     "attitude_controller/attitude_controller/controller_node.py",
     "spacecraft_sim/spacecraft_sim/sim_node.py",
     "attitude_estimation/attitude_estimation/estimator_node.py",
     "attitude_bringup/attitude_bringup/recorder_node.py",
+    "attitude_bringup/attitude_bringup/lifecycle_manager_node.py",
     "attitude_conformance/attitude_conformance/check_node.py",
 ]
+BEGIN, END = "<!-- contracts: begin -->", "<!-- contracts: end -->"
 
 
-def _part(module: str) -> str:
-    """``attitude_core.gnc.fepf`` -> ``gnc``; ``attitude_core.contract.status`` ->
-    ``contract.status`` when that module has a rule of its own."""
-    parts = module.split(".")[1:]
-    if len(parts) >= 2 and ".".join(parts[:2]) in _FINE:
-        return ".".join(parts[:2])
-    return parts[0] if parts else ""
+def _contracts() -> list[dict[str, object]]:
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    contracts: list[dict[str, object]] = config["tool"]["importlinter"]["contracts"]
+    return contracts
 
 
-_FINE = {rule for rules in ALLOWED.values() for rule in rules if "." in rule}
+def render_contracts() -> str:
+    """The contracts as the doc lists them: one block per contract, layers top down."""
+    out = []
+    for c in _contracts():
+        out.append(f"{c['id']} ({c['type']}): {c['name']}")
+        if c["type"] == "layers":
+            prefix = f"{c['containers'][0]}." if c.get("containers") else ""  # type: ignore[index]
+            for layer in c["layers"]:  # type: ignore[attr-defined]
+                sep = " : " if ":" in layer else " | "
+                names = [n.strip() for n in layer.replace(":", "|").split("|")]
+                out.append("    " + sep.join(prefix + n for n in names))
+        else:
+            out.append(f"    {', '.join(c['source_modules'])}")  # type: ignore[arg-type]
+            out.append(f"    must not import {', '.join(c['forbidden_modules'])}")  # type: ignore[arg-type]
+    return "\n".join(out)
 
 
-def _runtime_imports(path: Path) -> set[str]:
-    """Absolute attitude_* modules imported by ``path``, outside ``if TYPE_CHECKING``."""
-    tree = ast.parse(path.read_text(encoding="utf-8"))
-    skip: set[int] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            skip.update(id(n) for b in node.body for n in ast.walk(b))
-    found = set()
-    for node in ast.walk(tree):
-        if id(node) in skip:
-            continue
-        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            names = [f"{node.module}.{a.name}" for a in node.names]
-            found.update(
-                n for n in names if importlib.util.find_spec(node.module) and _is_module(n)
-            )
-            found.add(node.module)
-        elif isinstance(node, ast.Import):
-            found.update(a.name for a in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.level:
-            package = _module_name(path).split(".")[: -node.level]
-            found.add(".".join(package + ([node.module] if node.module else [])))
+def test_architecture_doc_states_the_contracts_word_for_word():
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    assert BEGIN in text and END in text, f"docs/architecture.md needs {BEGIN} ... {END}"
+    block = text.split(BEGIN, 1)[1].split(END, 1)[0].strip().strip("`").strip()
+    assert block == render_contracts(), (
+        "docs/architecture.md's contract block differs from pyproject.toml; it should read:\n"
+        + render_contracts()
+    )
+
+
+def _core_packages() -> list[str]:
+    return sorted(p.name for p in CORE.iterdir() if (p / "__init__.py").exists())
+
+
+def test_every_core_subpackage_is_in_a_layer_and_documented():
+    core = next(c for c in _contracts() if c["id"] == "core-layers")
+    layered = {
+        name.strip()
+        for layer in core["layers"]  # type: ignore[attr-defined]
+        for name in layer.replace(":", "|").split("|")
+    }
+    top_modules = {p.stem for p in CORE.glob("*.py")} - {"__init__"}
+    assert set(_core_packages()) | top_modules == layered, (
+        "every part of attitude_core must sit in the core-layers contract"
+    )
+    text = ARCHITECTURE.read_text(encoding="utf-8")
+    for package in _core_packages():
+        assert f"`{package}/`" in text, f"docs/architecture.md does not name {package}/"
+        doc = ast.get_docstring(ast.parse((CORE / package / "__init__.py").read_text()))
+        assert doc and len(doc) > 80, f"{package}/__init__.py needs its job, inputs and outputs"
+    assert len(top_modules) <= 3, sorted(top_modules)
+
+
+def _module_of(path: Path) -> str:
+    """``src/<dist>/<package>/a/b.py`` -> ``package.a.b`` (a package: its ``__init__``)."""
+    parts = list(path.relative_to(SRC).with_suffix("").parts[1:])
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph() -> dict[str, set[str]]:
+    """Every module of ``src/`` -> the modules of ``src/`` it imports: every import
+    statement, at any depth (functions, ``if TYPE_CHECKING``), relative ones resolved;
+    ``from package import name`` counts the submodule when ``name`` is one."""
+    files = [
+        p
+        for p in SRC.rglob("*.py")
+        if "__pycache__" not in p.parts and len(p.relative_to(SRC).parts) > 2
+    ]
+    modules = {_module_of(p): p for p in files}
+    graph: dict[str, set[str]] = {}
+    for name, path in modules.items():
+        is_package = path.name == "__init__.py"
+        deps: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                deps.update(a.name for a in node.names if a.name in modules)
+            elif isinstance(node, ast.ImportFrom):
+                base = node.module or ""
+                if node.level:
+                    here = name.split(".") if is_package else name.split(".")[:-1]
+                    here = here[: len(here) - (node.level - 1)]
+                    base = ".".join(here + ([node.module] if node.module else []))
+                for a in node.names:
+                    if f"{base}.{a.name}" in modules:
+                        deps.add(f"{base}.{a.name}")
+                    elif base in modules:
+                        deps.add(base)
+        deps.discard(name)
+        graph[name] = deps
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
     return found
 
 
-def _module_name(path: Path) -> str:
-    """``src/<dist>/<package>/a/b.py`` -> ``package.a.b``."""
-    rel = path.relative_to(ROOT / "src").with_suffix("").parts[1:]
-    return ".".join(rel)
+def test_no_import_circle_anywhere_in_src():
+    graph = import_graph()
+    assert len(graph) > 150, "the graph misses modules"
+    assert cycles(graph) == []
 
 
-def _is_module(dotted: str) -> bool:
-    try:
-        return importlib.util.find_spec(dotted) is not None
-    except (ImportError, ValueError):
-        return False
-
-
-def _core_files() -> list[Path]:
-    return sorted(p for p in CORE.rglob("*.py") if "__pycache__" not in p.parts)
-
-
-def _owner(path: Path) -> str:
-    rel = path.relative_to(CORE).with_suffix("")
-    return rel.parts[0]
-
-
-@pytest.mark.parametrize("path", _core_files(), ids=lambda p: str(p.relative_to(CORE)))
-def test_core_imports_follow_the_layers(path):
-    owner = _owner(path)
-    if owner == "__init__":
-        return
-    allowed = ALLOWED[owner] | {owner}
-    for module in _runtime_imports(path):
-        top = module.split(".")[0]
-        assert top not in ("rclpy", "attitude_ros", "attitude_tools"), f"{path}: imports {module}"
-        if top != "attitude_core" or module == "attitude_core":
-            continue
-        part = _part(module)
-        assert part in allowed or part.split(".")[0] in allowed, (
-            f"{path.relative_to(CORE)} imports {module}: {owner}/ may import {sorted(allowed)}"
-        )
-
-
-def test_core_top_level_is_small_and_every_part_is_documented():
-    modules = sorted(p.name for p in CORE.glob("*.py"))
-    assert len(modules) <= 6, modules
-    for package in [p for p in CORE.iterdir() if (p / "__init__.py").exists()]:
-        doc = ast.get_docstring(ast.parse((package / "__init__.py").read_text(encoding="utf-8")))
-        assert doc and len(doc) > 80, (
-            f"{package.name}/__init__.py needs its job, inputs and outputs"
-        )
-    architecture = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
-    for package in [p.name for p in CORE.iterdir() if (p / "__init__.py").exists()]:
-        assert f"`{package}/`" in architecture, f"docs/architecture.md does not name {package}/"
-
-
-ROS2_VERBS = TOOLS / "ros2cli"
-"""The ``ros2`` shim's graph verbs (``topic``, ``node``, ``lifecycle``, ``param``): the one
-part of attitude_tools that talks to a live graph, so it imports rclpy (from .venv,
-with no workspace sourced); only a verb that needs it loads it."""
-
-
-def test_attitude_tools_never_imports_rclpy():
-    for path in sorted(TOOLS.rglob("*.py")):
-        if ROS2_VERBS in path.parents:
-            continue
-        for module in _runtime_imports(path):
-            assert module.split(".")[0] not in ("rclpy", "attitude_ros"), f"{path}: {module}"
-    for path in sorted(ROS2_VERBS.rglob("*.py")):  # the verbs: rclpy, never our nodes' code
-        for module in _runtime_imports(path):
-            assert module.split(".")[0] != "attitude_ros", f"{path}: {module}"
+def test_the_cycle_finder_finds_a_circle():
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
 
 
 def _code_lines(source: str) -> int:
@@ -152,7 +182,7 @@ def _code_lines(source: str) -> int:
 
 @pytest.mark.parametrize("shell", SHELLS)
 def test_node_shells_are_thin(shell):
-    lines = _code_lines((ROOT / "src" / shell).read_text(encoding="utf-8"))
+    lines = _code_lines((SRC / shell).read_text(encoding="utf-8"))
     assert lines <= 150, f"{shell}: {lines} code lines (at most 150: the logic goes to the core)"
 
 

@@ -17,7 +17,7 @@ from scipy.linalg import expm
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from attitude_core.gnc.mekf import (
+from attitude_core.fsw.estimation.mekf import (
     Estimate,
     Mekf,
     MekfConfig,
@@ -27,8 +27,10 @@ from attitude_core.gnc.mekf import (
     steady_state_covariance,
     transition_matrix,
 )
-from attitude_core.gnc.mrp import skew
-from attitude_core.gnc.sensors import SensorSpec, SensorSuite, quat_from_rotvec, quat_mul
+from attitude_core.models.mrp import skew
+from attitude_core.models.quaternion import quat_from_rotvec, quat_mul
+from attitude_core.models.sensor_spec import SensorSpec
+from attitude_core.world.sensors import SensorSuite
 
 ARCSEC = math.radians(1.0 / 3600.0)
 DT = 0.1
@@ -345,7 +347,7 @@ def test_far_better_than_the_raw_star_tracker():
 def test_a_declared_star_tracker_noise_weights_the_update():
     """The noise a tracker declares with its sample (the estimator node) replaces the
     configured one: a larger one moves the estimate less towards the same measurement."""
-    from attitude_core.gnc.mekf import Mekf, MekfConfig
+    from attitude_core.fsw.estimation.mekf import Mekf, MekfConfig
 
     cfg = MekfConfig(0.1, (1e-4, 1e-4, 1e-4), 1e-5, 0.0, 1e-4)
     q0 = np.array([0.0, 0.0, 0.0, 1.0])

@@ -1,5 +1,5 @@
 """Guidance on a moving sky, judged on the body against the sky of each instant
-(attitude_core.gnc.moving_sky, goal_watch): a fast object across the path, a goal the
+(attitude_core.fsw.guidance.moving_sky, goal_watch): a fast object across the path, a goal the
 Earth covers, a goal covered for a while (before arrival, and while the body holds it)."""
 
 from __future__ import annotations
@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario, parse_scenario
+from attitude_core.config.scenario_loader import load_scenario, parse_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc.mrp import dcm_from_mrp, principal_angle, relative
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import dcm_from_mrp, principal_angle, relative
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_core.record.summary import summarize
 from attitude_core.yamlio import load_strict

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from scipy.spatial.transform import Rotation
 
-from attitude_core.gnc import mrp
+from attitude_core.models import mrp
 
 finite = st.floats(-3.0, 3.0, allow_nan=False, allow_infinity=False)
 vec3 = arrays(np.float64, 3, elements=finite)

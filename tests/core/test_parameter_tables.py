@@ -34,7 +34,8 @@ from attitude_core.config.parameters import (
     convert,
     values_from,
 )
-from attitude_core.config.scenario import ScenarioError, loads_scenario
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.config.scenario_schema import INSTRUMENT_PARAMETERS, SCENARIO_PARAMETERS
 from attitude_core.contract.status import PlannerStatus
 

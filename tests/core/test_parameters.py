@@ -24,8 +24,8 @@ from attitude_core.config.parameters import (
     values_from,
 )
 from attitude_core.config.scenario import ScenarioError
-from attitude_core.gnc.fuzzy.files import fis_value
-from attitude_core.gnc.mrp import dcm_from_mrp
+from attitude_core.fsw.guidance.fuzzy.files import fis_value
+from attitude_core.models.mrp import dcm_from_mrp
 
 
 def p(kind: str, **kw) -> Param:

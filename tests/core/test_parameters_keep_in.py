@@ -19,7 +19,9 @@ from parameter_rows import (
 
 from attitude_core.config.node_parameters import CONTROLLER, PLANNER, RECORDER, SIMULATOR
 from attitude_core.config.parameters import NodeParameterError
-from attitude_core.config.scenario import ScenarioError, loads_scenario, scenario_keys
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_flatten import scenario_keys
+from attitude_core.config.scenario_loader import loads_scenario
 
 # --- keep-in cones: the optional group --------------------------------------------------
 
@@ -126,7 +128,7 @@ class StandInNode:
 
 
 def _file_overrides(text: str) -> dict:
-    from attitude_core.config.scenario import flatten_parameters
+    from attitude_core.config.scenario_flatten import flatten_parameters
 
     return flatten_parameters(yaml.safe_load(text)["/**"]["ros__parameters"])
 

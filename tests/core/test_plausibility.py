@@ -6,7 +6,7 @@ import math
 
 from support import ROOT
 
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.runtime.plausibility import (
     DEFAULT_MAX_TORQUE_NM,
     MAX_RATE_RAD_S,

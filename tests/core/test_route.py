@@ -1,4 +1,4 @@
-"""Global route (attitude_core.gnc.route): roadmap, continuous edge checks, completeness
+"""Global route (attitude_core.fsw.guidance.route): roadmap, continuous edge checks, completeness
 against an independent search, infeasibility reasons; the guidance that follows it."""
 
 from __future__ import annotations
@@ -15,15 +15,16 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation, Slerp
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.assembly.guidance import guidance_from_scenario, route_planner
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc import guidance as guidance_module
-from attitude_core.gnc.constraints import ConeGeometry, short_rotation_single
-from attitude_core.gnc.guidance import ROUTE_LATENCY_S, Guidance
-from attitude_core.gnc.mrp import angle_between_single, principal_angle, relative
-from attitude_core.gnc.route import RoutePlanner, roadmap, super_fibonacci_quaternions
-from attitude_core.gnc.route_following import corner_speed
+from attitude_core.fsw.guidance import guidance as guidance_module
+from attitude_core.fsw.guidance.guidance import ROUTE_LATENCY_S
+from attitude_core.fsw.guidance.route import RoutePlanner, roadmap, super_fibonacci_quaternions
+from attitude_core.fsw.guidance.route_following import corner_speed
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.constraints import ConeGeometry, short_rotation_single
+from attitude_core.models.mrp import angle_between_single, principal_angle, relative
 from attitude_core.record.summary import summarize
 
 SCENARIOS = Path(__file__).resolve().parents[2] / "scenarios"
@@ -154,7 +155,7 @@ def test_route_exists_exactly_when_an_independent_search_finds_one():
 
 def test_enclosed_goal_is_infeasible_and_names_the_enclosing_cones():
     sc = load_scenario(SCENARIOS / "enclosed_goal.yaml")
-    route = Guidance.route_planner(sc, 2.0).plan(sc.initial_mrp, sc.desired_mrp)
+    route = route_planner(sc, 2.0).plan(sc.initial_mrp, sc.desired_mrp)
     assert not route.feasible
     assert "goal is enclosed by" in route.reason
     assert set(route.blocking) == {f"star_tracker/object_{k}" for k in range(1, 5)}
@@ -188,7 +189,7 @@ def test_shadow_crossing_slew_takes_the_short_way():
     # profile's acceleration (but for the landing on the goal, which zeroes a slow rate).
     change = np.linalg.norm(np.diff(run.omega_t, axis=0), axis=1)
     landing = (np.linalg.norm(run.omega_t[1:], axis=1) == 0.0) & (change > 0.0)
-    alpha = Guidance.from_scenario(sc).limits.accel_rad_s2
+    alpha = guidance_from_scenario(sc).limits.accel_rad_s2
     assert change[~landing].max() <= alpha * sc.dt_s * 1.01  # hard braking caps: rounding
     assert landing.sum() == 1 and change[landing].max() < 2e-3
 
@@ -207,8 +208,8 @@ def test_route_gets_past_where_the_fepf_alone_stalls():
 
 
 def _fly(guidance, sc, steps):
-    from attitude_core.gnc.control import PdGains, commanded_torque
-    from attitude_core.gnc.dynamics import RigidBody
+    from attitude_core.fsw.control.pd import PdGains, commanded_torque
+    from attitude_core.world.rigid_body import RigidBody
 
     body = RigidBody(sc.inertia_kgm2, sc.initial_mrp, sc.initial_rate_rad_s)
     gains = PdGains(sc.kp, sc.kd)
@@ -225,7 +226,7 @@ def _fly(guidance, sc, steps):
 
 def _straight_route(sc):
     """A "route" straight through the cones: the FEPF alone then stalls against them."""
-    route = Guidance.route_planner(sc, 2.0).plan(sc.initial_mrp, sc.desired_mrp)
+    route = route_planner(sc, 2.0).plan(sc.initial_mrp, sc.desired_mrp)
     return dataclasses.replace(
         route, waypoints=np.stack([sc.initial_mrp, sc.desired_mrp]), rotation_rad=0.0
     )
@@ -239,11 +240,11 @@ def test_stalled_target_gets_a_new_route_off_the_step_path(threaded, monkeypatch
     sc = load_scenario(SCENARIOS / "fepf_stall.yaml")
     with monkeypatch.context() as m:
         m.setattr(guidance_module, "ROUTE_REPLANS", 0)
-        stalled = Guidance.from_scenario(sc, initial_route=_straight_route(sc))
+        stalled = guidance_from_scenario(sc, initial_route=_straight_route(sc))
         _fly(stalled, sc, sc.n_steps)
     assert stalled.status == PlannerStatus.STUCK
     with ThreadPoolExecutor(max_workers=1) as pool:
-        guidance = Guidance.from_scenario(
+        guidance = guidance_from_scenario(
             sc, executor=pool if threaded else None, initial_route=_straight_route(sc)
         )
         requested = []
@@ -264,10 +265,10 @@ def test_stalled_target_gets_a_new_route_off_the_step_path(threaded, monkeypatch
 def test_threaded_replan_flies_the_same_targets_as_the_immediate_one():
     sc = load_scenario(SCENARIOS / "fepf_stall.yaml")
     straight = _straight_route(sc)
-    immediate, _ = _fly(Guidance.from_scenario(sc, initial_route=straight), sc, 1500)
+    immediate, _ = _fly(guidance_from_scenario(sc, initial_route=straight), sc, 1500)
     with ThreadPoolExecutor(max_workers=1) as pool:
         threaded, _ = _fly(
-            Guidance.from_scenario(sc, executor=pool, initial_route=straight), sc, 1500
+            guidance_from_scenario(sc, executor=pool, initial_route=straight), sc, 1500
         )
     np.testing.assert_array_equal(immediate, threaded)
 

@@ -8,7 +8,7 @@ import shutil
 import numpy as np
 from support import ROOT
 
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract import topics as t
 from attitude_core.runtime import run_identity as ri
 

@@ -7,15 +7,10 @@ import pytest
 import yaml
 from scenario_params import _base_params, _dump
 
-from attitude_core.config.scenario import (
-    ArrivalConfig,
-    PlannerConfig,
-    ScenarioError,
-    flatten_parameters,
-    load_scenario,
-    parse_scenario,
-)
-from attitude_core.gnc.mrp import shadow
+from attitude_core.config.scenario import ArrivalConfig, PlannerConfig, ScenarioError
+from attitude_core.config.scenario_flatten import flatten_parameters
+from attitude_core.config.scenario_loader import load_scenario, parse_scenario
+from attitude_core.models.mrp import shadow
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / 'scenarios'

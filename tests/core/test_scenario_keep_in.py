@@ -8,15 +8,15 @@ import pytest
 from scenario_params import _SUN, _base_params, _dump, _with_keep_in
 from scipy.spatial.transform import Rotation, Slerp
 
-from attitude_core.config.scenario import (
-    ScenarioError,
-    flatten_parameters,
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_flatten import flatten_parameters
+from attitude_core.config.scenario_loader import (
     load_scenario,
     loads_scenario,
     parse_scenario,
     scenario_yaml,
 )
-from attitude_core.gnc.constraints import ConeGeometry, KeepInCones
+from attitude_core.models.constraints import ConeGeometry, KeepInCones
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = ROOT / 'scenarios'

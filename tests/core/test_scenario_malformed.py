@@ -8,7 +8,8 @@ import pytest
 import yaml
 from scenario_params import _base_params, _dump, _with_keep_in
 
-from attitude_core.config.scenario import ScenarioError, load_scenario
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import load_scenario
 
 ROOT = Path(__file__).resolve().parents[2]
 

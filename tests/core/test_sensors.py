@@ -7,16 +7,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from attitude_core.gnc.sensors import (
-    SensorSpec,
-    SensorSuite,
-    quat_conj,
-    quat_from_rotvec,
-    quat_mul,
-    rotvec_from_quat,
-    star_tracker_due,
-    star_tracker_sample_steps,
-)
+from attitude_core.models.quaternion import quat_conj, quat_from_rotvec, quat_mul, rotvec_from_quat
+from attitude_core.models.sensor_spec import SensorSpec, star_tracker_due, star_tracker_sample_steps
+from attitude_core.world.sensors import SensorSuite
 
 ARCSEC = math.radians(1.0 / 3600.0)
 DT = 0.1

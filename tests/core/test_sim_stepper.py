@@ -19,11 +19,11 @@ import pytest
 
 from attitude_core.config.node_parameters import SIMULATOR
 from attitude_core.config.parameters import values_from
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.time_mode import TimeMode
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import to_principal
+from attitude_core.models.mrp import to_principal
 from attitude_core.runtime.sim_stepper import SETTLE_S, Action, Decision, SimStepper, StepperConfig
+from attitude_core.world.rigid_body import RigidBody
 
 ROOT = Path(__file__).resolve().parents[2]
 DT = 0.1

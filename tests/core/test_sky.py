@@ -1,4 +1,4 @@
-"""The moving sky (attitude_core.gnc.sky): margins from the limb against a brute-force
+"""The moving sky (attitude_core.models.sky): margins from the limb against a brute-force
 sampler, windowed cones that hold the true ones, static skies equal to the paper's
 geometry, rate bounds that bound."""
 
@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from attitude_core.config.scenario import load_scenario, parse_scenario
-from attitude_core.gnc.constraints import ConeGeometry, KeepInCones
-from attitude_core.gnc.ephemeris import body_directions
+from attitude_core.config.scenario_loader import load_scenario, parse_scenario
+from attitude_core.models.constraints import ConeGeometry, KeepInCones
+from attitude_core.models.ephemeris import body_directions
 from attitude_core.yamlio import load_strict
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -32,7 +32,7 @@ def _brute_margins(sc, t, sigma):
             if obj.name not in inst.avoids:
                 continue
             if obj.ephemeris is not None:
-                from attitude_core.gnc.ephemeris import parse_epoch_utc
+                from attitude_core.models.ephemeris import parse_epoch_utc
 
                 c, r = body_directions(obj.ephemeris, parse_epoch_utc(sc.epoch_utc), sc.orbit, t)
                 radius = np.degrees(float(r))

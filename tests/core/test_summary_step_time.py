@@ -8,9 +8,9 @@ from pathlib import Path
 
 import numpy as np
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.summary import summarize
 
 CASE1 = Path(__file__).resolve().parents[2] / "scenarios" / "case1.yaml"

@@ -1,7 +1,7 @@
 """The shared vocabulary of the stack, without ROS: planner statuses
 (:mod:`attitude_core.contract.status`), the planner's ``/diagnostics`` key/value contract
 (:mod:`attitude_core.contract.diagnostics`) and the node graph
-(:mod:`attitude_core.contract.node_graph`),
+(:mod:`attitude_core.config.node_graph`),
 checked against the topic contract, the packages' ``setup.py`` console scripts and the
 topics the node sources really subscribe and publish (read with ``ast``, not imported).
 """
@@ -15,8 +15,8 @@ from pathlib import Path
 
 import pytest
 
+from attitude_core.config import node_graph as g
 from attitude_core.config.node_parameters import CONTROLLER, PLANNER, RECORDER, SIMULATOR
-from attitude_core.contract import node_graph as g
 from attitude_core.contract import topics as t
 from attitude_core.contract.diagnostics import KEYS, PlannerDiagnostics
 from attitude_core.contract.status import DiagnosticLevel, PlannerStatus

@@ -105,7 +105,7 @@ def scenario() -> Scenario:
     """``scenarios/case1.yaml``, loaded (the node-shell tests' scenario)."""
     from shells import CASE1, DT_NS
 
-    from attitude_core.config.scenario import load_scenario
+    from attitude_core.config.scenario_loader import load_scenario
 
     sc = load_scenario(CASE1)
     assert round(sc.dt_s * 1e9) == DT_NS

@@ -22,7 +22,7 @@ def start_bridge(
     the node table's state listeners and extra ``-p`` parameters (``"time_mode:=realtime"``),
     in ``namespace`` (a run's, to join it), its output in ``log``. The caller stops it
     (SIGINT) and waits for it."""
-    from attitude_core.contract.node_graph import state_listeners
+    from attitude_core.config.node_graph import state_listeners
 
     ros2 = shutil.which("ros2", path=env["PATH"])
     assert ros2 is not None

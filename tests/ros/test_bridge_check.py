@@ -22,9 +22,9 @@ from support import needs_workspace
 
 from attitude_core.config.node_parameters import SIMULATOR
 from attitude_core.config.parameters import values_from
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.time_mode import TimeMode
-from attitude_core.gnc.mrp import quat_from_mrp
+from attitude_core.models.mrp import quat_from_mrp
 from attitude_core.runtime.sim_stepper import Action, SimStepper
 from attitude_tools.run import bridge_check
 

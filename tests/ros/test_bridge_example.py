@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 from support import needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
-from attitude_core.contract import node_graph
-from attitude_core.contract.node_graph import NodeSpec
+from attitude_core.config import node_graph
+from attitude_core.config.node_graph import NodeSpec
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.topics import ANGULAR_VELOCITY, APPLIED_TORQUE, ATTITUDE, CLOCK, TORQUE
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import mrp_from_quat, principal_angle, quat_from_mrp, relative
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import mrp_from_quat, principal_angle, quat_from_mrp, relative
+from attitude_core.world.rigid_body import RigidBody
 from attitude_tools.run.cli import NodeGraph, ros_environment
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -21,10 +21,10 @@ from shells import (
 )
 
 from attitude_controller.controller_node import PdControllerNode
+from attitude_core.config import node_graph
 from attitude_core.config.scenario import Scenario
-from attitude_core.contract import node_graph
-from attitude_core.gnc.control import PdGains, pd_torque
-from attitude_core.gnc.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.fsw.control.pd import PdGains, pd_torque
+from attitude_core.models.mrp import mrp_from_quat, quat_from_mrp
 from attitude_ros import contract as c
 from attitude_ros.convert import stamp_ns
 
@@ -204,7 +204,7 @@ def test_controller_rejects_inputs_in_another_frame(ros, scenario):
 def test_controller_scales_its_command_into_the_actuator_bound(ros, scenario, tmp_path):
     """With ``actuators.max_torque_nm`` the torque is the eq. 11 torque scaled into the
     per-axis bound, its direction kept."""
-    from attitude_core.gnc.actuators import scale_to_bound
+    from attitude_core.fsw.control.saturation import scale_to_bound
 
     bound = (0.03, 0.02, 0.05)
     path = tmp_path / "limited.yaml"

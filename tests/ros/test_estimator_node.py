@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 from shells import DT_NS, QUIET_S, ROOT, RosSession
 
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.diagnostics import ATTITUDE_3SIGMA_DEG, ESTIMATOR_STATUS_NAME
-from attitude_core.gnc.mekf import Mekf, MekfConfig
-from attitude_core.gnc.sensors import SensorSuite, star_tracker_due
+from attitude_core.fsw.estimation.mekf import Mekf, MekfConfig
+from attitude_core.models.sensor_spec import star_tracker_due
+from attitude_core.world.sensors import SensorSuite
 from attitude_estimation.estimator_node import MekfEstimatorNode
 from attitude_ros import contract as c
 from attitude_ros import convert as cv

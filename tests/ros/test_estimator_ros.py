@@ -20,8 +20,7 @@ import numpy as np
 import pytest
 from support import needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import (
     ATTITUDE,
@@ -30,8 +29,9 @@ from attitude_core.contract.topics import (
     TRUTH_ATTITUDE,
     stamp_ns,
 )
-from attitude_core.gnc.mrp import mrp_from_quat, principal_angle, relative
-from attitude_core.gnc.sensors import star_tracker_due
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import mrp_from_quat, principal_angle, relative
+from attitude_core.models.sensor_spec import star_tracker_due
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_tools.bag import read_bag
 from attitude_tools.bag.run_record import run_from_bag
@@ -161,7 +161,7 @@ def test_the_report_plots_the_estimate_against_the_truth(sensed_run, tmp_path):
     loaded = load_run(str(out))
     est = loaded.run.estimate
     assert est is not None and np.isfinite(est.attitude_3sigma_deg[1:]).all()
-    fig = figures.fig_estimation(figures._Context([loaded], mrp_grid=16))
+    fig = figures.fig_estimation(figures.FigureContext([loaded], mrp_grid=16))
     try:
         (line,) = [
             a

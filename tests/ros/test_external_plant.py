@@ -16,10 +16,10 @@ import pytest
 from ros_helpers import run_with_bridge
 from support import needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import CLOCK
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_tools.bag import read_bag
 from attitude_tools.bag.run_record import run_from_bag

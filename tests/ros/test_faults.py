@@ -17,12 +17,12 @@ import pytest
 from ros_helpers import listen_like_a_recorder
 from support import needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import TARGET_MRP, TORQUE
-from attitude_core.gnc.mrp import angle_between_single
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import angle_between_single
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg
 from attitude_tools.bag import read_bag
 from attitude_tools.bag.run_record import run_from_bag

@@ -30,7 +30,7 @@ import pytest
 from support import needs_workspace, spawn_attitude_run
 from test_faults import Graph, assert_safe_arrival
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract.diagnostics import STATUS_NAME
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import (

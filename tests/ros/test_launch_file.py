@@ -3,7 +3,7 @@
 The launch file is executed against recording stand-ins of the few ``launch`` and
 ``launch_ros`` classes it uses (each records its arguments), so what is checked is the
 launch description it really builds: the launch arguments, the nodes of
-``attitude_core.contract.node_graph.NODES`` with their packages, executables, names and
+``attitude_core.config.node_graph.NODES`` with their packages, executables, names and
 parameters (``SENSING_NODES`` for a scenario with sensors: the graph is chosen when the
 launch runs, by an ``OpaqueFunction`` called here with a stand-in context), the
 simulator's expected listeners, and the shutdown on the simulator's exit. Each
@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract.time_mode import TimeMode
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -14,7 +14,7 @@ import pytest
 from support import needs_workspace
 from test_faults import Graph
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_tools.bag.run_record import run_from_bag
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -141,7 +141,7 @@ def _trailing_start(flags: np.ndarray) -> int:
 
 FAILING_NODE = """
 import sys
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_ros.node_base import StackNode
 from attitude_ros.runner import run
 

@@ -15,9 +15,11 @@ from shells import CASE1, ROOT
 
 from attitude_bringup.recorder_node import BagRecorderNode
 from attitude_controller.controller_node import PdControllerNode
+from attitude_core.config import node_graph
 from attitude_core.config.parameters import NodeParameterError
-from attitude_core.config.scenario import Scenario, ScenarioError, load_scenario, scenario_keys
-from attitude_core.contract import node_graph
+from attitude_core.config.scenario import Scenario, ScenarioError
+from attitude_core.config.scenario_flatten import scenario_keys
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_planner.planner_node import FepfPlannerNode
 from attitude_tools.bag.run_record import scenario_from_bag

@@ -3,7 +3,9 @@
 import ast
 import configparser
 import os
+import re
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -199,7 +201,7 @@ DYNAMIC_IMPORTS = {
 
 
 def _node_graph_packages():
-    from attitude_core.contract import node_graph
+    from attitude_core.config import node_graph
 
     return {spec.package for spec in node_graph.NODES}
 
@@ -209,7 +211,7 @@ def _node_graph_packages():
 LAUNCHED_PACKAGES = {
     'attitude_bringup': (
         'the launch file starts one Node per entry of the node table '
-        'attitude_core.contract.node_graph.NODES',
+        'attitude_core.config.node_graph.NODES',
         _node_graph_packages,
     ),
 }
@@ -399,3 +401,57 @@ def test_pip_check_is_clean_in_the_venv():
         timeout=120,
     )
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+# --- install_requires names the pip packages imported -----------------------------------------
+#
+# Our pip packages (PIP_PACKAGES) are no ROS packages, so package.xml cannot declare them;
+# setup.py's install_requires does, by their distribution names (src/<pkg>/pyproject.toml).
+
+
+def _distribution(name):
+    """A distribution name as pip compares them (PEP 503)."""
+    return re.sub(r'[-_.]+', '-', name).lower()
+
+
+def _pip_distribution(pip_package):
+    project = tomllib.loads((SRC / pip_package / 'pyproject.toml').read_text())['project']
+    return _distribution(project['name'])
+
+
+def _pip_packages_imported(pkg):
+    """Our pip packages that the package's modules and launch files import."""
+    sources = sorted((SRC / pkg / pkg).rglob('*.py'))
+    launch_files = sorted((SRC / pkg / 'launch').glob('*.py'))
+    found = set()
+    for path in sources + launch_files:
+        names, _ = _imports(path, SRC / pkg if path in sources else None)
+        found |= {n.split('.')[0] for n in names} & set(PIP_PACKAGES)
+    return found
+
+
+def _install_requires(pkg):
+    value = _setup_kwargs(pkg).get('install_requires', [])
+    requires = ast.literal_eval(value) if isinstance(value, ast.AST) else value
+    return {_distribution(re.match(r'[A-Za-z0-9._-]+', r).group()) for r in requires}
+
+
+def test_the_pip_import_finder_sees_the_bringup_timeline():
+    """attitude_bringup.timeline writes the bag with attitude_tools."""
+    assert _pip_packages_imported('attitude_bringup') == {'attitude_core', 'attitude_tools'}
+    assert _pip_distribution('attitude_tools') == 'attitude-tools'
+
+
+@pytest.mark.parametrize('pkg', AMENT_PACKAGES)
+def test_install_requires_names_each_pip_package_imported(pkg):
+    ours = {_pip_distribution(p) for p in PIP_PACKAGES}
+    imported = {_pip_distribution(p) for p in _pip_packages_imported(pkg)}
+    declared = _install_requires(pkg) & ours
+    assert imported <= declared, (
+        f'src/{pkg}/setup.py: install_requires lacks {sorted(imported - declared)} '
+        '(imported by the package)'
+    )
+    assert declared <= imported, (
+        f'src/{pkg}/setup.py: install_requires names {sorted(declared - imported)}, '
+        'which the package does not import'
+    )

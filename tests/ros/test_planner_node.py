@@ -9,11 +9,10 @@ import pytest
 from geometry_msgs.msg import QuaternionStamped
 from shells import CASE1, DT_NS, QUIET_S, RosSession, assert_close, attitude_msg, vector_msg, xyz
 
+from attitude_core.assembly.guidance import guidance_from_scenario, planner_from_scenario
 from attitude_core.contract import diagnostics
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc.fepf import FepfPlanner
-from attitude_core.gnc.guidance import Guidance
-from attitude_core.gnc.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.models.mrp import mrp_from_quat, quat_from_mrp
 from attitude_planner.planner_node import FepfPlannerNode
 from attitude_ros import contract as c
 from attitude_ros.convert import stamp_ns
@@ -66,14 +65,14 @@ class PlannerProbe:
 def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
     ros.init(CASE1)
     p = PlannerProbe(ros)
-    path = FepfPlanner.from_scenario(scenario)
+    path = planner_from_scenario(scenario)
     exact = scenario.cone_geometry()
     # Measured attitudes: the start, then along the FEPF's own target path; the node's
     # answers are the core guidance's for those states (at rest: zero rate).
     n_steps = 12
     fepf = [path.step() for _ in range(n_steps + 2)]
     measured = [scenario.initial_mrp] + [o.sigma_t for o in fepf[1:]]
-    reference = Guidance.from_scenario(scenario)
+    reference = guidance_from_scenario(scenario)
     expected = [
         reference.update(k * DT_NS / 1e9, measured[k], np.zeros(3)).target
         for k in range(n_steps + 2)

@@ -29,7 +29,7 @@ from bag_checks import assert_finished_and_consistent, mcap_path
 from ros_helpers import listen_like_a_recorder
 from support import needs_workspace, run_env, spawn_attitude_run
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, DIAGNOSTICS, TORQUE
 from attitude_core.runtime.recording import EXIT_DISK_FULL
 from attitude_tools.bag import bag_info, read_attachment, read_bag

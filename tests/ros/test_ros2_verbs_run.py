@@ -17,7 +17,7 @@ import pytest
 import yaml
 from support import ATTITUDE_RUN, needs_workspace
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract import topics as t
 from attitude_tools.bag import read_bag
 from attitude_tools.run.cli import ros_environment

@@ -15,17 +15,17 @@ import numpy as np
 import pytest
 from support import attitude_run, needs_workspace, run_env
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.assembly.guidance import guidance_from_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.diagnostics import HARDWARE_ID as DIAG_HARDWARE_ID
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ATTITUDE, CLOCK, PLANNER_STATUS, TOPICS, TORQUE, stamp_ns
-from attitude_core.gnc.control import PdGains, pd_torque
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.guidance import Guidance
-from attitude_core.gnc.mrp import to_principal as principal
+from attitude_core.fsw.control.pd import PdGains, pd_torque
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import to_principal as principal
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg
 from attitude_core.record.summary import summarize
+from attitude_core.world.rigid_body import RigidBody
 from attitude_tools.bag import bag_info, read_bag
 from attitude_tools.bag.run_record import run_from_bag, scenario_from_bag
 
@@ -220,7 +220,7 @@ def test_realtime_run_steps_on_the_wall_clock(tmp_path, ros_domain):
     # Planner: the core guidance started on the first state it answered, as the node
     # starts it, then on each recorded state, moved for the real time between the stamps
     # (wall-clock stamps, not k dt).
-    guidance = Guidance.from_scenario(sc, sigma_0=run.sigma_bn[first])
+    guidance = guidance_from_scenario(sc, sigma_0=run.sigma_bn[first])
     t0 = int(bag_run.stamps_ns[first])
     expected = np.array(
         [

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from support import attitude_run, needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract import diagnostics
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import DIAGNOSTICS
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_tools.bag import read_bag
 from attitude_tools.bag.run_record import run_from_bag
 

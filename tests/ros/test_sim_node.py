@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from shells import CASE1, DT_NS, QUIET_S, RosSession, assert_close, stamps, torque_msg, xyz, xyzw
 
+from attitude_core.config import node_graph
 from attitude_core.config.scenario import Scenario
-from attitude_core.contract import node_graph
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.models.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.world.rigid_body import RigidBody
 from attitude_ros import contract as c
 from attitude_ros.convert import stamp_ns
 from spacecraft_sim.sim_node import RigidBodySimNode

@@ -20,11 +20,11 @@ import pytest
 from ros_helpers import run_with_bridge
 from support import needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import APPLIED_TORQUE, TORQUE
-from attitude_core.gnc.mrp import principal_angle, relative
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import principal_angle, relative
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_core.record.summary import summarize
 from attitude_tools.bag import read_bag

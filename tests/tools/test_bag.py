@@ -572,8 +572,8 @@ def test_steps_per_s_is_the_stepping_rate_after_the_loops_first_answer():
     its warm-up."""
     import numpy as np
 
-    from attitude_core.closed_loop import run_closed_loop
-    from attitude_core.config.scenario import load_scenario
+    from attitude_core.config.scenario_loader import load_scenario
+    from attitude_core.loop.closed_loop import run_closed_loop
     from attitude_tools.bag.run_record import BagRun, summarize_bag
 
     root = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))

@@ -22,8 +22,8 @@ import yaml
 from scipy.spatial.transform import Rotation
 from support import needs_workspace
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import load_scenario, loads_scenario
+from attitude_core.config.scenario_loader import load_scenario, loads_scenario
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_tools.bag.run_record import run_from_bag
 from attitude_tools.campaign.draw import _candidate, base_parameters, draw_run, scenario_text

@@ -15,7 +15,8 @@ import pyarrow.parquet as pq
 import pytest
 import yaml
 
-from attitude_core.config.scenario import flatten_parameters, loads_scenario
+from attitude_core.config.scenario_flatten import flatten_parameters
+from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.yamlio import load_strict
 from attitude_tools.campaign import cli
 from attitude_tools.campaign.cli import run_campaign

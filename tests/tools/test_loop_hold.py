@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 import yaml
 
-import attitude_core.closed_loop as closed_loop
-from attitude_core.config.scenario import load_scenario
-from attitude_core.gnc.guidance import Guidance
+import attitude_core.loop.closed_loop as closed_loop
+from attitude_core.assembly.guidance import guidance_from_scenario
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_tools.campaign.draw import base_parameters, draw_run
 from attitude_tools.campaign.spec import load_spec
 
@@ -100,7 +101,7 @@ def test_the_hold_band_is_offered_only_on_arrival_and_time_runs_on():
     """No band while the target moves; on the goal, twice the arrival tolerances; a held
     state's time is the guidance's previous time (a state before it is refused)."""
     sc = load_scenario(f"{ROOT}/scenarios/case1.yaml")
-    guidance = Guidance.from_scenario(sc)
+    guidance = guidance_from_scenario(sc)
     target = guidance.update(0.0, sc.initial_mrp, np.zeros(3)).target
     assert target.status.name == "TRACKING" and guidance.hold_band() is None
     goal = sc.desired_mrp

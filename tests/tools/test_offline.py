@@ -9,8 +9,8 @@ import sys
 import numpy as np
 import pytest
 
-from attitude_core.closed_loop import run_closed_loop
 from attitude_core.contract.status import PlannerStatus
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.summary import SUMMARY_KEYS, summarize
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -23,7 +23,7 @@ FEASIBLE = [s for s in SCENARIOS if s not in INFEASIBLE + BLOCKED]
 
 @pytest.fixture(scope="module")
 def summaries():
-    from attitude_core.config.scenario import load_scenario
+    from attitude_core.config.scenario_loader import load_scenario
 
     out = {}
     for name in SCENARIOS:
@@ -70,7 +70,7 @@ def test_improved_variant_cuts_torque_peak_and_terminal_rate(summaries, case):
 
 
 def test_closed_loop_is_deterministic_and_physical(summaries):
-    from attitude_core.config.scenario import load_scenario
+    from attitude_core.config.scenario_loader import load_scenario
 
     run_a = summaries["case2"][0]
     run_b = run_closed_loop(load_scenario(f"{ROOT}/scenarios/case2.yaml"))

@@ -21,7 +21,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from attitude_core.gnc.constraints import ConeGeometry
+from attitude_core.models.constraints import ConeGeometry
 from attitude_tools.report.figures import FIGURES
 from attitude_tools.report.geometry import (
     Pair,
@@ -323,7 +323,7 @@ def _eigenaxis_run(scenario_path: Path, seconds: float = 30.0, dt: float = 0.1):
     (t, sigma_bn, omega_b) sampled every ``dt``."""
     from scipy.spatial.transform import Rotation, Slerp
 
-    from attitude_core.config.scenario import load_scenario
+    from attitude_core.config.scenario_loader import load_scenario
 
     sc = load_scenario(scenario_path)
     ends = Rotation.from_mrp(np.array([sc.initial_mrp, sc.desired_mrp]))  # active: C_NB
@@ -341,7 +341,7 @@ def _write_run_bag(bag_dir: Path, scenario_text: str, t, sigma, omega) -> None:
     from rclpy.serialization import serialize_message
 
     from attitude_core.contract import topics
-    from attitude_core.gnc.mrp import quat_from_mrp
+    from attitude_core.models.mrp import quat_from_mrp
     from attitude_tools.bag import BagWriter
 
     def stamped(msg, ns, frame):
@@ -427,11 +427,12 @@ def test_keep_in_run_summary_covers_the_keep_in_cone(keep_in_run):
 def test_keep_in_margin_figure_plots_the_geometry_margin_of_the_recorded_attitudes(keep_in_run):
     import matplotlib.pyplot as plt
 
-    from attitude_tools.report import figures
+    from attitude_tools.report.figures.context import FigureContext
+    from attitude_tools.report.figures.margin import fig_margin
 
-    ctx = figures._Context([keep_in_run], mrp_grid=24)
+    ctx = FigureContext([keep_in_run], mrp_grid=24)
     assert [c.key for c in ctx.keep_ins] == ["keep_in/sun_sensor"]
-    fig = figures.fig_margin(ctx)
+    fig = fig_margin(ctx)
     try:
         (line,) = _with_gid(fig, "keep_in/sun_sensor/margin")
         assert line.get_label() == "keep_in/sun_sensor"
@@ -441,8 +442,8 @@ def test_keep_in_margin_figure_plots_the_geometry_margin_of_the_recorded_attitud
     finally:
         plt.close(fig)
     # Compared with another run: a keep-in panel with both runs' series.
-    other = figures._Context([keep_in_run, keep_in_run], mrp_grid=24)
-    fig = figures.fig_margin(other)
+    other = FigureContext([keep_in_run, keep_in_run], mrp_grid=24)
+    fig = fig_margin(other)
     try:
         lines = _with_gid(fig, "keep_in/sun_sensor/margin")
         assert len(lines) == 2
@@ -457,12 +458,16 @@ def test_keep_in_cone_and_axis_track_on_the_sky(keep_in_run):
     import matplotlib.pyplot as plt
     from scipy.spatial.transform import Rotation
 
-    from attitude_tools.report import figures
+    from attitude_tools.report.figures.context import FigureContext
+    from attitude_tools.report.figures.sky_maps import (
+        fig_keepout_inertial,
+        fig_trajectory_boresight,
+    )
 
     sc = keep_in_run.scenario
     d, gamma = sc.keep_in_directions_inertial[0], 70.0
-    ctx = figures._Context([keep_in_run], mrp_grid=24)
-    for build in (figures.fig_keepout_inertial, figures.fig_trajectory_boresight):
+    ctx = FigureContext([keep_in_run], mrp_grid=24)
+    for build in (fig_keepout_inertial, fig_trajectory_boresight):
         fig = build(ctx)
         try:
             (cone,) = _with_gid(fig, "keep_in/sun_sensor/cone")
@@ -473,7 +478,7 @@ def test_keep_in_cone_and_axis_track_on_the_sky(keep_in_run):
             np.testing.assert_allclose(angles, gamma, atol=1e-9)  # the cone's rim
         finally:
             plt.close(fig)
-    fig = figures.fig_trajectory_boresight(ctx)
+    fig = fig_trajectory_boresight(ctx)
     try:
         assert len(fig.axes) == 2  # the star tracker's panel and the sun sensor's
         (track,) = _with_gid(fig, "keep_in/sun_sensor/axis")
@@ -491,7 +496,8 @@ def test_keep_in_cone_and_axis_track_on_the_sky(keep_in_run):
 def test_keep_in_boundary_in_mrp_space(keep_in_run):
     import matplotlib.pyplot as plt
 
-    from attitude_tools.report import figures
+    from attitude_tools.report.figures.context import FigureContext
+    from attitude_tools.report.figures.mrp_space import fig_keepout_mrp
     from attitude_tools.report.geometry import keep_ins_of
 
     (cone,) = keep_ins_of([keep_in_run.scenario])
@@ -501,7 +507,7 @@ def test_keep_in_boundary_in_mrp_space(keep_in_run):
     inner = verts[np.linalg.norm(verts, axis=1) < 0.95]
     # On the keep-in cone's rim, to the grid's resolution (spacing 2/31 MRP).
     assert np.max(np.abs(_keep_in_reference_at(keep_in_run.scenario, inner))) < 6.0
-    fig = figures.fig_keepout_mrp(figures._Context([keep_in_run], mrp_grid=24))
+    fig = fig_keepout_mrp(FigureContext([keep_in_run], mrp_grid=24))
     try:
         assert len(_with_gid(fig, "keep_in/sun_sensor/surface")) == 1
     finally:

@@ -9,11 +9,14 @@ import numpy as np
 import pytest
 from test_report import ROOT, _unit_from_ra_dec, _with_gid, _write_run_bag
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import loads_scenario
-from attitude_tools.report import figures
+from attitude_core.config.scenario_loader import loads_scenario
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_tools.report import sky as report_sky
 from attitude_tools.report.cli import write_report
+from attitude_tools.report.figures import FIGURES
+from attitude_tools.report.figures.context import FigureContext
+from attitude_tools.report.figures.margin import fig_margin
+from attitude_tools.report.figures.sky_maps import fig_keepout_inertial, fig_trajectory_boresight
 from attitude_tools.report.geometry import boresight_inertial
 
 # moving_object, its star tracker avoiding only object_1 (half-angle) and the mover (10 deg).
@@ -62,7 +65,7 @@ def test_margin_figure_plots_each_constraint_against_the_moving_sky(report_run, 
     assert not sc.sky.static
     expected = sc.sky.constraint_margins_deg(t, sigma)
     np.testing.assert_allclose(report_sky.constraint_margins_deg(run), expected, atol=1e-9)
-    fig = figures.fig_margin(figures._Context([run], mrp_grid=16))
+    fig = fig_margin(FigureContext([run], mrp_grid=16))
     try:
         for c, key in enumerate(sc.constraint_names):
             (line,) = _with_gid(fig, f"{key}/margin")
@@ -86,8 +89,8 @@ def test_moving_objects_tracks_and_cones_on_the_sky(report_run, name):
     t = report_sky.track_times(run)
     assert t[0] == run.run.t[0] and t[-1] == pytest.approx(run.run.t[-1])
     np.testing.assert_allclose(np.diff(t), 1.0, atol=1e-9)  # a point every second
-    ctx = figures._Context([run], mrp_grid=16)
-    for build in (figures.fig_keepout_inertial, figures.fig_trajectory_boresight):
+    ctx = FigureContext([run], mrp_grid=16)
+    for build in (fig_keepout_inertial, fig_trajectory_boresight):
         fig = build(ctx)
         try:
             for j, obj in enumerate(sc.bright_object_names):
@@ -111,7 +114,7 @@ def test_moving_objects_tracks_and_cones_on_the_sky(report_run, name):
                     dirs, radii = sky.object_directions(when)
                     rim = sky.pair_exclusion_deg[c] + radii[j]  # from the limb
                     np.testing.assert_allclose(_angles(_drawn(cone), dirs[j]), rim, atol=1e-6)
-                if build is figures.fig_trajectory_boresight:
+                if build is fig_trajectory_boresight:
                     (mark,) = _with_gid(fig, f"{key}/closest_boresight")
                     b = boresight_inertial(run.run.sigma_bn[k : k + 1], sc.boresights_body[0])
                     np.testing.assert_allclose(_drawn(mark), b, atol=1e-9)
@@ -124,17 +127,17 @@ def test_a_pair_not_avoided_is_neither_a_cone_nor_a_margin(report_run, tmp_path)
     run = report_run("moving_object", AVOIDS)
     sc = run.scenario
     assert sc.constraint_names == ("star_tracker/object_1", "star_tracker/mover")
-    ctx = figures._Context([run], mrp_grid=16)
+    ctx = FigureContext([run], mrp_grid=16)
     pairs = [(p.key, p.half_angle_deg) for p in ctx.pairs]  # object_2, object_3: none
     assert pairs == [("star_tracker/object_1", 20.0), ("star_tracker/mover", 10.0)]
-    fig = figures.fig_trajectory_boresight(ctx)
+    fig = fig_trajectory_boresight(ctx)
     try:
         (cone,) = _with_gid(fig, "star_tracker/mover/cone_start")  # 10 deg, not 20
         np.testing.assert_allclose(_angles(_drawn(cone), sc.directions_inertial[3]), 10.0)
         assert "keep-out object_1 20, mover 10 deg" in fig.axes[0].get_title()
     finally:
         plt.close(fig)
-    fig = figures.fig_margin(ctx)
+    fig = fig_margin(ctx)
     try:
         gids = {a.get_gid() for a in fig.findobj() if a.get_gid()}
         assert gids == {"star_tracker/object_1/margin", "star_tracker/mover/margin"}
@@ -150,7 +153,7 @@ def test_a_pair_not_avoided_is_neither_a_cone_nor_a_margin(report_run, tmp_path)
 def test_scenario_table_shows_ephemeris_bodies_exclusions_and_orbit(report_run, tmp_path):
     run = report_run("leo_star_tracker")
     out = write_report([run], str(tmp_path / "report"), dpi=40, mrp_grid=16)
-    assert all((tmp_path / "report" / name).is_file() for name in figures.FIGURES)
+    assert all((tmp_path / "report" / name).is_file() for name in FIGURES)
     page = Path(out, "report.html").read_text(encoding="utf-8")
     for text in (
         "sun: sun (ephemeris, seen from the spacecraft)",
@@ -170,7 +173,7 @@ def test_static_sky_report_is_the_papers(report_run):
     run = report_run("case1")
     sc = run.scenario
     assert sc.sky.static
-    ctx = figures._Context([run], mrp_grid=16)
+    ctx = FigureContext([run], mrp_grid=16)
     old_pairs = [  # every instrument/object pair at the instrument's half-angle
         (n, o, float(b), tuple(c))
         for n, b in zip(sc.instrument_names, sc.half_angles_deg, strict=True)
@@ -180,7 +183,7 @@ def test_static_sky_report_is_the_papers(report_run):
     assert drawn == old_pairs
     assert not any(p.moving for p in ctx.pairs) and ctx.n_instruments == 1
     static = sc.cone_geometry().margins_deg(run.run.sigma_bn)  # the static formula
-    fig = figures.fig_margin(ctx)
+    fig = fig_margin(ctx)
     try:
         for i, name in enumerate(sc.instrument_names):
             for j, obj in enumerate(sc.bright_object_names):
@@ -189,7 +192,7 @@ def test_static_sky_report_is_the_papers(report_run):
                 np.testing.assert_array_equal(line.get_ydata(), static[:, i, j])
     finally:
         plt.close(fig)
-    fig = figures.fig_trajectory_boresight(ctx)
+    fig = fig_trajectory_boresight(ctx)
     try:
         title = "star_tracker: boresight [1, 0, 0] (body), half-angle 20 deg"
         assert fig.axes[0].get_title() == title

@@ -405,7 +405,7 @@ def test_lookup_in_a_given_environment_matches_the_shim(tmp_path):
 
 
 def test_attitude_run_names_a_missing_node_package_before_starting_anything(tmp_path):
-    from attitude_core.contract import node_graph
+    from attitude_core.config import node_graph
     from attitude_tools.run.environment import node_executables
     from attitude_tools.run.errors import RunError
 

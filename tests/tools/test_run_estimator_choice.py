@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from attitude_core.config import node_graph as graph
 from attitude_core.config.scenario import ScenarioError
-from attitude_core.contract import node_graph as graph
 from attitude_tools.run.orchestrate import (
     PLANT_EXTERNAL,
     PLANT_SIM,

@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 
 from support import ROOT
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract import topics as t
 from attitude_tools.sros2_policy import policy_xml
 

@@ -26,9 +26,9 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray
 from rclpy.serialization import deserialize_message
 
+from attitude_core.config import node_graph
 from attitude_core.config.parameters import NodeParameterError
-from attitude_core.config.scenario import loads_scenario
-from attitude_core.contract import node_graph
+from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.contract.diagnostics import PlannerDiagnostics
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S, Topic

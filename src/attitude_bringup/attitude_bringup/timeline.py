@@ -17,7 +17,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from attitude_core.config.scenario import is_ros_builtin, scenario_yaml
+from attitude_core.config.scenario_flatten import is_ros_builtin
+from attitude_core.config.scenario_loader import scenario_yaml
 from attitude_core.contract.topics import DIAGNOSTICS, NS_PER_S, Topic
 from attitude_core.runtime.recording import StopRule, implausible_stamp
 from attitude_ros import contract as c

@@ -14,7 +14,7 @@ Launch arguments:
   spacecraft_sim).
 * ``bag_dir``: output directory of the bag written by ``bag_recorder`` (default ``bag``).
 
-Starts the nodes of :func:`attitude_core.contract.node_graph.graph` for the scenario
+Starts the nodes of :func:`attitude_core.config.node_graph.graph` for the scenario
 (recorder, planner, controller, simulator; and the estimator first when the scenario
 declares ``sensors.*``), the same table ``attitude-run`` starts; the simulator waits for
 every state listener of that table (``node_graph.state_listeners``: planner, controller
@@ -49,8 +49,8 @@ from launch_ros.events.lifecycle import ChangeState
 from launch_ros.parameter_descriptions import ParameterValue
 from lifecycle_msgs.msg import Transition
 
-from attitude_core.config.scenario import load_scenario
-from attitude_core.contract import node_graph as graph
+from attitude_core.config import node_graph as graph
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.time_mode import TimeMode
 
 

@@ -15,12 +15,10 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
-from rclpy.node import Node
-
+from attitude_core.config import node_graph
 from attitude_core.config.node_parameters import NodeParameters
 from attitude_core.config.parameters import Bounds, NodeParameterError, Param, ParamKind
-from attitude_core.config.scenario import load_scenario
-from attitude_core.contract import node_graph
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.time_mode import TimeMode
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
@@ -80,7 +78,7 @@ def values(name: str, msg: Any) -> tuple[float, ...]:
     return tuple(cv.vector3(msg.wrench.torque if name == c.APPLIED_TORQUE else msg.vector))
 
 
-class BridgeCheckNode(Node):
+class BridgeCheckNode(loop.CheckNode):
     def __init__(self, **kwargs: Any) -> None:
         super().__init__("bridge_check", **kwargs)
         own, _ = declare_node_parameters(self, PARAMETERS)
@@ -90,7 +88,8 @@ class BridgeCheckNode(Node):
         self.driver = Driver(self.rec)
         self.sampler = Sampler(self.rec, self.driver)
         self.watch = Watch(self.driver, own.timeout_s, time.monotonic())
-        self.done, self.exit_code = False, 0
+        self.done = False
+        self.exit_code = 0
         self.probe = QosProbe(self)
         self.pubs = {
             name: publisher(self, name, event_callbacks=self.probe.publisher_events(name))
@@ -121,8 +120,8 @@ class BridgeCheckNode(Node):
         if name == c.CLOCK:
             sample = Sample(cv.stamp_ns(msg.clock), "", (), now)
         else:
-            stamp, frame = cv.stamp_ns(msg.header.stamp), msg.header.frame_id
-            sample = Sample(stamp, frame, values(name, msg), now)
+            stamp = cv.stamp_ns(msg.header.stamp)
+            sample = Sample(stamp, msg.header.frame_id, values(name, msg), now)
         self.send(self.sampler.heard(name, sample), now)
 
     def send(self, torques: Torques, now: float) -> None:

@@ -7,7 +7,7 @@ import statistics
 import numpy as np
 
 from attitude_core.contract.topics import BODY_FRAME, INERTIAL_FRAME
-from attitude_core.gnc.mrp import quat_from_mrp
+from attitude_core.models.mrp import quat_from_mrp
 
 from .physics import rotation_angle
 from .record import FAIL, PASS, Recording, Result

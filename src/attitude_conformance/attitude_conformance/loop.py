@@ -12,28 +12,49 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING
 
 import rclpy
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from attitude_core.config.parameters import ParameterError
-
-if TYPE_CHECKING:
-    from .check_node import BridgeCheckNode
 
 SPIN_S = 0.005  # longest wait for a callback between two ticks
 DRAIN_S = 0.3  # spin this long after the script, for messages still in flight
 DRAIN_SPIN_S = 0.02
 
 
+class CheckNode(Node):
+    """What the loop drives: an rclpy node with a script to tick (the bridge check's,
+    :class:`attitude_conformance.check_node.BridgeCheckNode`, is one)."""
+
+    done: bool
+    exit_code: int
+
+    def tick(self) -> None:
+        """Act between callbacks (the script's next step)."""
+        raise NotImplementedError
+
+    def abort(self, reason: str) -> None:
+        """End the script early (an interrupt), still reported."""
+        raise NotImplementedError
+
+    def report(self) -> None:
+        """Report the verdict and set ``exit_code``."""
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the node holds besides its ROS entities."""
+        raise NotImplementedError
+
+
 def _error(err: Exception) -> None:
     print(f"[bridge_check] error: {err}", file=sys.stderr, flush=True)
 
 
-def run(node_factory: Callable[[], BridgeCheckNode], args: list[str] | None = None) -> int:
+def run(node_factory: Callable[[], CheckNode], args: list[str] | None = None) -> int:
     """Create the node, spin it, report; the exit code (2 on a bad command line)."""
     stop: list[int] = []
     previous = {

@@ -1,4 +1,4 @@
-"""The reference physics of one step: :class:`attitude_core.gnc.dynamics.RigidBody` over ``dt``
+"""The reference physics of one step: :class:`attitude_core.world.rigid_body.RigidBody` over ``dt``
 with the torque held, started from the bridge's own state, and the errors against the
 bridge's next state."""
 
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import numpy.typing as npt
 
-from attitude_core.gnc.dynamics import RigidBody
-from attitude_core.gnc.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.models.mrp import mrp_from_quat, quat_from_mrp
+from attitude_core.world.rigid_body import RigidBody
 
 ATTITUDE_TOL_RAD = 1e-6
 RATE_TOL_RAD_S = 1e-8

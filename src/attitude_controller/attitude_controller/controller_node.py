@@ -20,8 +20,8 @@ import random
 
 from geometry_msgs.msg import WrenchStamped
 
-from attitude_core.contract import node_graph
-from attitude_core.gnc.control import PdGains, commanded_torque
+from attitude_core.config import node_graph
+from attitude_core.fsw.control.pd import PdGains, commanded_torque
 from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
@@ -89,7 +89,8 @@ class PdControllerNode(StackNode):
         out.header.stamp = stamp_msg
         set_vector3(out.wrench.torque, u)
         self.publish(out)
-        self.last_stamp, self.last_torque = stamp, out
+        self.last_stamp = stamp
+        self.last_torque = out
 
     @property
     def takes_input(self) -> bool:

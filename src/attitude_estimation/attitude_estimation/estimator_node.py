@@ -3,7 +3,7 @@
 Wiring only: :class:`attitude_core.runtime.estimator_stepper.EstimatorStepper` pairs the
 gyro (``/spacecraft/imu``) and star tracker (``/spacecraft/star_tracker``) samples by
 stamp and runs the multiplicative extended Kalman filter of
-:mod:`attitude_core.gnc.mekf` (Markley and Crassidis, 2014). Each filtered step
+:mod:`attitude_core.fsw.estimation.mekf` (Markley and Crassidis, 2014). Each filtered step
 publishes, with the measurements' stamp, the estimated attitude on
 ``/spacecraft/attitude`` (frame ``inertial``), the bias-corrected rate on
 ``/spacecraft/angular_velocity`` (frame ``body``) and the filter's state on
@@ -24,7 +24,7 @@ from typing import Any
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract.diagnostics import (
     ATTITUDE_3SIGMA_DEG,
     ESTIMATOR_STATUS_NAME,
@@ -63,7 +63,8 @@ class MekfEstimatorNode(StackNode):
         self.pub_att = publisher(self, c.ATTITUDE)
         self.pub_rate = publisher(self, c.ANGULAR_VELOCITY)
         self.pub_diag = publisher(self, c.DIAGNOSTICS)
-        self.msg_att, self.msg_rate = message(c.ATTITUDE), message(c.ANGULAR_VELOCITY)
+        self.msg_att = message(c.ATTITUDE)
+        self.msg_rate = message(c.ANGULAR_VELOCITY)
         self.guard.watch(c.IMU, subscription(self, c.IMU, self.on_imu))
         self.guard.watch(c.STAR_TRACKER, subscription(self, c.STAR_TRACKER, self.on_star_tracker))
         self.create_timer(POLL_PERIOD_S, self.on_timer)
@@ -123,25 +124,24 @@ class MekfEstimatorNode(StackNode):
 
     def publish(self, estimates: list[StampedEstimate]) -> None:
         for s in estimates:
-            est = s.estimate
             self.gate.take(s.stamp_ns, time.time_ns())
             for m in (self.msg_att, self.msg_rate):
                 cv.set_stamp(m.header.stamp, s.stamp_ns)
-            cv.set_quaternion_from_mrp(self.msg_att.quaternion, est.sigma_bn)
-            cv.set_vector3(self.msg_rate.vector, est.omega_b)
+            cv.set_quaternion_from_mrp(self.msg_att.quaternion, s.estimate.sigma_bn)
+            cv.set_vector3(self.msg_rate.vector, s.estimate.omega_b)
             self.pub_att.publish(self.msg_att)
             self.pub_rate.publish(self.msg_rate)
             self.pub_diag.publish(self.report(s))
 
     def report(self, s: StampedEstimate) -> Any:
-        est, st = s.estimate, self.stepper
+        est = s.estimate
         values = {
             ATTITUDE_3SIGMA_DEG: f"{est.attitude_3sigma_deg:.9g}",
             GYRO_BIAS_RAD_S: " ".join(f"{b:.9g}" for b in est.bias_rad_s),
             "star_tracker_used": str(s.star_tracker_used).lower(),
-            "star_tracker_lost": str(st.lost),
-            "star_tracker_late": str(st.late),
-            "gyro_stale": str(st.stale),
+            "star_tracker_lost": str(self.stepper.lost),
+            "star_tracker_late": str(self.stepper.late),
+            "gyro_stale": str(self.stepper.stale),
         }
         ok = math.isfinite(est.attitude_3sigma_deg)
         status = DiagnosticStatus(

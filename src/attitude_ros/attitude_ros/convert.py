@@ -19,7 +19,7 @@ from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S, Stamp
 from attitude_core.contract.topics import stamp_ns as stamp_ns  # re-exported for the nodes
 from attitude_core.contract.topics import topic as contract_topic
-from attitude_core.gnc.mrp import Vec3Like, mrp_from_quat_single, quat_from_mrp_single
+from attitude_core.models.mrp import Vec3Like, mrp_from_quat_single, quat_from_mrp_single
 
 # ROS messages, nodes and loggers are typed Any: the message packages ship no type
 # information, and only their attributes are used here.

@@ -31,10 +31,10 @@ from typing import Any, ClassVar, Protocol
 from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 
 from attitude_core.config import node_parameters
+from attitude_core.config.node_graph import NodeSpec
 from attitude_core.config.parameters import ParameterError
 from attitude_core.config.scenario import ScenarioError
 from attitude_core.contract.exit_codes import EXIT_BAD_INPUT, EXIT_FAILURE
-from attitude_core.contract.node_graph import NodeSpec
 from attitude_ros.params import declare_rows
 
 __all__ = ["StackNode", "Stoppable"]

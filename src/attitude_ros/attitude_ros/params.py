@@ -5,8 +5,8 @@ description with its rule, read-only flag, and a floating-point or integer range
 the row has closed bounds. A row without a default is declared typed and unset.
 
 A node that reads the scenario validates the whole scenario with the one loader
-(:func:`attitude_core.config.scenario.parse_scenario`): the rows it declares, plus every other
-parameter given to it (file or ``-p``) that it did not declare. So a scenario file is
+(:func:`attitude_core.config.scenario_loader.parse_scenario`): the rows it declares, plus
+every other parameter given to it (file or ``-p``) that it did not declare. So a scenario file is
 accepted or refused by every node exactly as by ``load_scenario``, including a typo
 in a key the node does not read. Relative data-file paths are resolved against the
 node's working directory (``attitude-run`` starts the nodes in the scenario's directory,
@@ -25,7 +25,9 @@ from rclpy.parameter import Parameter
 
 from attitude_core.config.node_parameters import NodeParameters
 from attitude_core.config.parameters import NodeParameterError, Param, ParameterError
-from attitude_core.config.scenario import Scenario, ScenarioError, parse_scenario, scenario_keys
+from attitude_core.config.scenario import Scenario, ScenarioError
+from attitude_core.config.scenario_flatten import scenario_keys
+from attitude_core.config.scenario_loader import parse_scenario
 from attitude_core.config.scenario_schema import GROUPS
 
 P = TypeVar("P")

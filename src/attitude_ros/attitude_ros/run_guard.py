@@ -27,9 +27,9 @@ from typing import Any
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from rclpy.node import Node
 
+from attitude_core.config import node_graph
+from attitude_core.config.node_graph import NodeSpec
 from attitude_core.config.scenario import Scenario
-from attitude_core.contract import node_graph
-from attitude_core.contract.node_graph import NodeSpec
 from attitude_core.runtime import run_identity as ri
 from attitude_ros import contract as c
 from attitude_ros.convert import set_stamp
@@ -262,7 +262,7 @@ class RunGuard:
 
     def matched_readers(self) -> dict[str, int]:
         """Readers matched by each of the node's per-step outputs, as its writers count
-        them (:func:`~attitude_core.contract.node_graph.per_step_outputs`; on
+        them (:func:`~attitude_core.config.node_graph.per_step_outputs`; on
         ``/diagnostics`` the per-step writer, not the identity's)."""
         per_step = set(node_graph.per_step_outputs(self.spec))
         return {
@@ -329,7 +329,7 @@ class RunGuard:
         simulator's start-up gate; for at most :data:`~ri.MATCH_GRACE_S` the matching
         is waited for, then the run starts with a warning naming who is unmatched).
 
-        ``min_readers`` (:attr:`~attitude_core.contract.node_graph.Readiness.min_readers`):
+        ``min_readers`` (:attr:`~attitude_core.config.node_graph.Readiness.min_readers`):
         per role, the readers each per-step output must have matched, counted by the
         node that publishes it (this node's own, and each present peer's as it last
         said): every expected reader then takes the first sample."""

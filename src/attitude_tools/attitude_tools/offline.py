@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.config.scenario import ScenarioError, load_scenario
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract import diagnostics
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import RunResult
 from attitude_tools.output.rundir import check_replaceable, publish, stage

@@ -4,7 +4,7 @@
 (SROS2 policy format 0.2.0) that a full ROS 2 install turns into signed DDS permissions
 with ``ros2 security create_permission`` (see docs/robustness.md, "DDS security"). One
 enclave per node (``<root>/<role>``); each node may publish and subscribe exactly the
-topics :mod:`attitude_core.contract.node_graph` gives it, plus what every rclpy node needs
+topics :mod:`attitude_core.config.node_graph` gives it, plus what every rclpy node needs
 (``/rosout``, its parameter services, ``/parameter_events``) and ``/diagnostics``, where
 every node publishes its run identity and listens to its peers'. Topic names are
 absolute, so the policy holds in any run namespace (``profile ns="*"`` is not used: the
@@ -20,7 +20,7 @@ import sys
 import xml.etree.ElementTree as ET
 from typing import Any
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.contract import topics as t
 
 __all__ = ["PARAMETER_SERVICES", "permissions", "policy_xml"]

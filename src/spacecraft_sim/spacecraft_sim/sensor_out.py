@@ -1,6 +1,6 @@
 """The simulator's sensors on ROS: the star tracker and gyro messages of each state.
 
-:class:`attitude_core.gnc.sensors.SensorSuite` draws the measurements of a state once
+:class:`attitude_core.world.sensors.SensorSuite` draws the measurements of a state once
 (simulated time ``k dt``); :meth:`SensorOut.publish` sends them, the star tracker sample
 (when the state has one) before the gyro sample, and sends the same again when the
 simulator re-sends the state. Message conventions: :mod:`attitude_core.contract.topics`.
@@ -11,7 +11,8 @@ from __future__ import annotations
 from typing import Any
 
 from attitude_core.config.scenario import Scenario
-from attitude_core.gnc.sensors import Measurement, SensorSpec, SensorSuite
+from attitude_core.models.sensor_spec import Measurement, SensorSpec
+from attitude_core.world.sensors import SensorSuite
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
 from attitude_ros.endpoints import message, publisher

@@ -5,7 +5,7 @@ time, eqs. 3-4). Each step ``k`` publishes, with one stamp, the attitude (frame
 ``inertial``), ``omega_BN`` (frame ``body``) and, in lockstep only, ``/clock`` (``k dt``);
 it takes ``/controller/torque`` and publishes the torque applied over ``[t_k, t_k+1)``
 on ``/spacecraft/applied_torque``, stamped ``k``. It waits for the graph of
-:func:`attitude_core.contract.node_graph.readiness` first. Exit 0 at the scenario's end, 1 when
+:func:`attitude_core.config.node_graph.readiness` first. Exit 0 at the scenario's end, 1 when
 the graph never connects.
 
 With declared sensors (``sensors.*``) the state goes to ``/spacecraft/truth/*`` (for the
@@ -22,7 +22,7 @@ import time
 from rclpy.clock import Clock, ClockType
 from rosgraph_msgs.msg import Clock as ClockMsg
 
-from attitude_core.contract import node_graph
+from attitude_core.config import node_graph
 from attitude_core.runtime.sim_stepper import Action, Decision, SimStepper
 from attitude_ros import cdr
 from attitude_ros import contract as c
@@ -43,19 +43,20 @@ class RigidBodySimNode(StackNode):
 
     def configure(self) -> None:
         own, sc = declare_scenario_node(self, node_graph.SIMULATOR.parameters)
-        self.scenario, self.time_mode = sc, own.time_mode
+        self.scenario = sc
         sensing = sc.sensors is not None
         self.ready = node_graph.readiness(own.lockstep.expected_subscribers, sensing)
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
         state_att, state_rate = c.TRUTH_TOPICS if sensing else c.STATE_TOPICS
-        self.pub_clock, self.pub_att = publisher(self, c.CLOCK), publisher(self, state_att)
-        self.pub_rate, self.pub_applied = (
-            publisher(self, state_rate),
-            publisher(self, c.APPLIED_TORQUE),
-        )
-        self.msg_att, self.msg_rate = message(state_att), message(state_rate)
+        self.pub_clock = publisher(self, c.CLOCK)
+        self.pub_att = publisher(self, state_att)
+        self.pub_rate = publisher(self, state_rate)
+        self.pub_applied = publisher(self, c.APPLIED_TORQUE)
+        self.msg_att = message(state_att)
+        self.msg_rate = message(state_rate)
         self.sensors = None if sc.sensors is None else SensorOut(self, sc, sc.sensors)
-        self.msg_clock, self.msg_applied = ClockMsg(), message(c.APPLIED_TORQUE)
+        self.msg_clock = ClockMsg()
+        self.msg_applied = message(c.APPLIED_TORQUE)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         stamp = lambda: self.stepper.state_stamp or 0
         self.guard = RunGuard(self, self.spec, sc, lambda code, _: self.finish(code), stamp)
@@ -64,7 +65,7 @@ class RigidBodySimNode(StackNode):
         )
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
-            f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {self.time_mode} mode; "
+            f"scenario '{sc.name}': {sc.n_steps} steps of {sc.dt_s} s, {own.time_mode} mode; "
             f"waiting for {own.lockstep.expected_subscribers} state listeners and a "
             "torque publisher"
         )
@@ -82,11 +83,8 @@ class RigidBodySimNode(StackNode):
             if count < n:
                 return False
         for name, n in self.ready.min_publishers.items():
-            count = (
-                self.sub_torque.get_publisher_count()
-                if name == c.TORQUE
-                else self.count_publishers(name)
-            )
+            sub = self.sub_torque if name == c.TORQUE else None
+            count = sub.get_publisher_count() if sub is not None else self.count_publishers(name)
             if count < n:
                 return False
         return True
@@ -153,7 +151,8 @@ class RigidBodySimNode(StackNode):
 
     def finish(self, code: int) -> None:
         if not self.done:
-            self.done, self.exit_code = True, code
+            self.done = True
+            self.exit_code = code
             self.timer.cancel()
 
     def close(self) -> None:

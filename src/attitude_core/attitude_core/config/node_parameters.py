@@ -22,7 +22,7 @@ from attitude_core.config.parameters import (
     typed_values,
     values_from,
 )
-from attitude_core.config.scenario import is_ros_builtin, scenario_keys
+from attitude_core.config.scenario_flatten import is_ros_builtin, scenario_keys
 from attitude_core.config.scenario_schema import GROUPS
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.time_mode import TimeMode

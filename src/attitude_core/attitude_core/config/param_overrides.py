@@ -5,7 +5,7 @@ Values are parsed as ``ros2 run ... -p NAME:=VALUE`` parses them (a YAML scalar 
 sequence: ``1`` is an integer, ``1.0`` a float, ``true`` a boolean, ``[a, b]`` a list,
 anything else a string). A node's own rows are checked with
 :func:`attitude_core.config.parameters.convert`; any other key must be a scenario key (checked
-with the scenario by :func:`attitude_core.config.scenario.parse_scenario`) or one rclpy
+with the scenario by :func:`attitude_core.config.scenario_loader.parse_scenario`) or one rclpy
 declares itself; an unknown key is refused with a "did you mean" hint. The nodes run
 the same checks (``attitude_ros.params``), so a value refused here would be refused
 there.
@@ -22,10 +22,8 @@ import yaml
 
 from attitude_core.config.node_parameters import NodeParameters
 from attitude_core.config.parameters import NodeParameterError, convert
-from attitude_core.config.scenario import (
-    flatten_parameters,
-    parse_scenario,
-)
+from attitude_core.config.scenario_flatten import flatten_parameters
+from attitude_core.config.scenario_loader import parse_scenario
 
 __all__ = ["parse_assignment", "check_overrides"]
 

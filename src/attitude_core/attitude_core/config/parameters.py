@@ -25,7 +25,7 @@ from typing import Any, NamedTuple, TypeVar, get_type_hints
 
 import numpy as np
 
-from attitude_core.gnc.mrp import to_principal
+from attitude_core.models.mrp import to_principal
 
 __all__ = [
     "ParameterError",

@@ -18,9 +18,13 @@ from typing import Any
 import numpy as np
 
 from attitude_core.config.parameters import REQUIRED, Bounds, ByVariant, Param, ParamKind, ge, gt
-from attitude_core.gnc.ephemeris import BODIES, parse_epoch_utc
-from attitude_core.gnc.fepf import DirectionAxis, PlannerVariant, PlanningFrame
-from attitude_core.gnc.fuzzy.files import fis_value
+from attitude_core.fsw.guidance.fuzzy.files import fis_value
+from attitude_core.fsw.guidance.planner_config import (
+    DirectionAxis,
+    PlannerVariant,
+    PlanningFrame,
+)
+from attitude_core.models.ephemeris import BODIES, parse_epoch_utc
 
 __all__ = [
     "SCENARIO_PARAMETERS",

@@ -53,8 +53,9 @@ class PlannerStatus(enum.StrEnum):
     """Neither the target nor the body has come closer to the goal for
     ``planner.stuck_timeout_s`` (longer with actuator limits); the target is held."""
     INFEASIBLE = ("infeasible", 3, DiagnosticLevel.ERROR, True)
-    """No route reaches the goal at the planner's resolution (:mod:`attitude_core.gnc.route`),
-    decided before the first step; the target holds the start and the guidance's
+    """No route reaches the goal at the planner's resolution
+    (:mod:`attitude_core.fsw.guidance.route`), decided before the first step; the target
+    holds the start and the guidance's
     ``reason`` names the constraints that enclose the start or the goal."""
 
     BLOCKED = ("blocked", 4, DiagnosticLevel.WARN, False)

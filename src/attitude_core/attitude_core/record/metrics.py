@@ -9,15 +9,15 @@ from __future__ import annotations
 import numpy as np
 import numpy.typing as npt
 
-from attitude_core.gnc.constraints import ConeGeometry
-from attitude_core.gnc.mrp import (
+from attitude_core.models.constraints import ConeGeometry
+from attitude_core.models.mrp import (
     mrp_from_quat_sf,
     principal_angle,
     quat_sf_from_mrp,
     relative,
     shadow,
 )
-from attitude_core.gnc.sky import Sky
+from attitude_core.models.sky import Sky
 
 __all__ = [
     "DENSE_SLACK_DEG",

@@ -16,12 +16,12 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.assembly.guidance import buffer_deg
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.gnc.fepf import buffer_deg
-from attitude_core.gnc.goal_watch import goal_blockages, safe_until_s
-from attitude_core.gnc.mrp import principal_angle, relative
-from attitude_core.gnc.profile_limits import GuidanceLimits, time_bound_s
+from attitude_core.fsw.guidance.goal_watch import goal_blockages, safe_until_s
+from attitude_core.fsw.guidance.profile_limits import GuidanceLimits, time_bound_s
+from attitude_core.models.mrp import principal_angle, relative
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg, path_length_mrp
 from attitude_core.record.trajectory import RunResult
 
@@ -231,8 +231,9 @@ def _against_limits(run: RunResult, t_reach: float | None) -> dict[str, Any]:
 
     ``rotation_deg`` is the rotation flown up to the arrival (the integral of
     ``|omega_B| dt``); ``time_bound_s`` the rest-to-rest bound along it
-    (:func:`attitude_core.gnc.profile_limits.time_bound_s`) and ``time_ratio_to_bound`` the arrival
-    time over that bound (None without limits or without an arrival).
+    (:func:`attitude_core.fsw.guidance.profile_limits.time_bound_s`) and
+    ``time_ratio_to_bound`` the arrival time over that bound (None without limits or
+    without an arrival).
     ``peak_torque_to_bound`` is the largest ``|u_i| / max_torque_nm_i`` and
     ``peak_rate_to_bound`` the peak body rate over ``max_rate_rad_s``.
     """

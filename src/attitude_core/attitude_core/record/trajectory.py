@@ -1,7 +1,7 @@
 """The sampled closed-loop trajectory of a run.
 
 One record for every source of a run: the offline loop
-(:func:`attitude_core.closed_loop.run_closed_loop`), a run rebuilt from its bag
+(:func:`attitude_core.loop.closed_loop.run_closed_loop`), a run rebuilt from its bag
 (``attitude_tools.bag.run_record``) and the reports; :mod:`attitude_core.record.summary`
 turns it into the run's figures.
 """

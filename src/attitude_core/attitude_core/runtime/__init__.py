@@ -11,4 +11,8 @@
 * ``recording``: planner statuses and stamps in; the recorder's stop rule out.
 * ``sim_stepper``: wall time and torques received in; the simulator's start-up gate,
   lockstep handshake and real-time ticks out.
+* ``planner_stepper``: measured states (stamp, attitude, rate) in; the planner's
+  targets, held target, margin, diagnostics and status changes out.
+* ``lifecycle_manager``: the managed nodes' names, transition events, identities and
+  command lines in; their bring-up and bring-down and the manager's event lines out.
 """

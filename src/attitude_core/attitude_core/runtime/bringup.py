@@ -1,6 +1,6 @@
 """The bring-up of one run's managed nodes, as a lifecycle manager drives it (no ROS).
 
-The order follows the node table (:mod:`attitude_core.contract.node_graph`): every
+The order follows the node table (:mod:`attitude_core.config.node_graph`): every
 node is configured, the run is checked (each loop node runs the same scenario, the
 plant is there), then the nodes are activated in start order (the recorder first, the
 simulator last) and deactivated and shut down in the reverse order.

@@ -4,7 +4,7 @@ out, in stamp order.
 Every gyro sample (``/spacecraft/imu``) is one filter step at its stamp. The star
 tracker sample of a step arrives on its own topic, so it may come before or after the
 gyro sample of the same stamp: a step whose stamp is a star tracker sample time of the
-declared schedule (:func:`attitude_core.gnc.sensors.star_tracker_due`) waits for that
+declared schedule (:func:`attitude_core.models.sensor_spec.star_tracker_due`) waits for that
 sample up to ``wait_s`` of wall time, then is filtered without it (``lost``). A star
 tracker sample whose step was already filtered is ``late`` and dropped; one at a stamp
 off the schedule is used if its gyro sample is still pending. Gyro samples older than
@@ -22,8 +22,8 @@ import numpy as np
 import numpy.typing as npt
 
 from attitude_core.contract.topics import NS_PER_S
-from attitude_core.gnc.mekf import Estimate, Mekf, MekfConfig
-from attitude_core.gnc.sensors import SensorSpec, star_tracker_due
+from attitude_core.fsw.estimation.mekf import Estimate, Mekf, MekfConfig
+from attitude_core.models.sensor_spec import SensorSpec, star_tracker_due
 
 __all__ = ["StampedEstimate", "EstimatorStepper"]
 

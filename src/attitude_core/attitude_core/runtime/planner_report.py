@@ -1,6 +1,6 @@
 """The planner's ``/diagnostics`` values of one guidance step (no ROS).
 
-Inputs: the guidance (:class:`attitude_core.gnc.guidance.Guidance`, None before the first
+Inputs: the guidance (:class:`attitude_core.fsw.guidance.guidance.Guidance`, None before the first
 state), its output for the step, the step's wall time, the measured attitude's exact
 margin and the count of refused messages. Output: :class:`PlannerDiagnostics`, with the
 route followed, the reason the slew is infeasible or blocked, and, on a moving sky, when
@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from attitude_core.contract.diagnostics import PlannerDiagnostics
-from attitude_core.gnc.guidance import Guidance, GuidanceOutput
+from attitude_core.fsw.guidance.guidance import Guidance, GuidanceOutput
 
 __all__ = ["planner_diagnostics"]
 

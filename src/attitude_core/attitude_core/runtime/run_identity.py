@@ -39,8 +39,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from attitude_core.config import node_graph
 from attitude_core.config.scenario import Scenario
-from attitude_core.contract import node_graph
 from attitude_core.contract import topics as t
 from attitude_core.contract.exit_codes import EXIT_FINGERPRINT_MISMATCH, EXIT_FOREIGN_PUBLISHER
 

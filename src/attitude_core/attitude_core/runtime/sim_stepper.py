@@ -47,13 +47,13 @@ import numpy.typing as npt
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.time_mode import TimeMode
 from attitude_core.contract.topics import BODY_FRAME, NS_PER_S
-from attitude_core.gnc.actuators import clip_to_bound
-from attitude_core.gnc.dynamics import RigidBody
 from attitude_core.runtime.plausibility import (
     DEFAULT_MAX_TORQUE_NM,
     implausible_torque,
     torque_bound_nm,
 )
+from attitude_core.world.actuator import clip_to_bound
+from attitude_core.world.rigid_body import RigidBody
 
 if TYPE_CHECKING:
     from attitude_core.config.node_parameters import SimulatorParams
@@ -405,7 +405,7 @@ class SimStepper:
 
     def _bounded(self, torque: Vector) -> Vector:
         """The torque the body gets: clipped per axis to the plant's bound, as independent
-        wheels saturate (:func:`attitude_core.gnc.actuators.clip_to_bound`)."""
+        wheels saturate (:func:`attitude_core.world.actuator.clip_to_bound`)."""
         applied, saturated = clip_to_bound(torque, self.cfg.max_torque_nm)
         self.saturated_steps += int(saturated)
         return np.array(applied, dtype=float)

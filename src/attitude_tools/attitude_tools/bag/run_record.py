@@ -32,7 +32,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from attitude_core.config.scenario import Scenario, loads_scenario
+from attitude_core.config.scenario import Scenario
+from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.contract.diagnostics import (
     ATTITUDE_3SIGMA_DEG,
     ESTIMATOR_STATUS_NAME,
@@ -52,7 +53,7 @@ from attitude_core.contract.topics import (
     TRUTH_ATTITUDE,
     stamp_ns,
 )
-from attitude_core.gnc.mrp import mrp_from_quat
+from attitude_core.models.mrp import mrp_from_quat
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import Estimates, RunResult
 from attitude_tools.bag.reader import read_attachment, read_bag

@@ -311,7 +311,7 @@ def _close(client: Client) -> None:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(
         prog="attitude-campaign",
-        description="Monte Carlo campaign of dispersed slews on Dask (README: campaigns).",
+        description="Monte Carlo campaign of dispersed slews on Dask (docs/campaigns.md).",
     )
     parser.add_argument("spec", help="campaign SPEC file (YAML)")
     parser.add_argument("--out", required=True, help="campaign directory to create")

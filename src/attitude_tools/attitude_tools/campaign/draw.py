@@ -13,7 +13,7 @@ bright object a fixed inertial direction, every instrument avoiding every object
 ``half_angle_deg``, every keep-in direction fixed) it is checked first, on the drawn
 values, before the loader. On a draw with a real sky (ephemeris bodies, turning objects,
 per-object ``exclusion_deg`` or ``avoids``) it is checked after the loader, on the
-loaded scenario's sky (:meth:`attitude_core.gnc.sky.Sky.constraint_margins_deg`): the
+loaded scenario's sky (:meth:`attitude_core.models.sky.Sky.constraint_margins_deg`): the
 start at ``t = 0``, the goal at every 5 s over ``[0, sim_time_s]``, so that a goal the
 moving sky covers during the run is redrawn: campaigns judge the guidance on goals that
 stay clear (blocked goals: ``scenarios/leo_goal_blocked.yaml``,
@@ -53,15 +53,12 @@ from typing import Any
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from attitude_core.config.scenario import (
-    Scenario,
-    ScenarioError,
-    flatten_parameters,
-    parse_scenario,
-)
-from attitude_core.config.scenario import scenario_yaml as to_yaml
+from attitude_core.config.scenario import Scenario, ScenarioError
+from attitude_core.config.scenario_flatten import flatten_parameters
+from attitude_core.config.scenario_loader import parse_scenario
+from attitude_core.config.scenario_loader import scenario_yaml as to_yaml
 from attitude_core.config.scenario_schema import GROUPS
-from attitude_core.gnc.constraints import margins_deg_from_dcm
+from attitude_core.models.constraints import margins_deg_from_dcm
 from attitude_core.yamlio import load_strict
 
 from .spec import MAX_REDRAWS, CampaignSpec, utc_text

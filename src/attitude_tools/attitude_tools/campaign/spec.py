@@ -1,7 +1,6 @@
 """The campaign SPEC file: parsing and validation, every error naming its key.
 
-A SPEC is YAML with one top-level ``campaign`` mapping (see the README, "Monte Carlo
-campaigns")::
+A SPEC is YAML with one top-level ``campaign`` mapping (see docs/campaigns.md)::
 
     campaign:
       name: random_slews
@@ -58,13 +57,10 @@ from typing import Any
 
 import yaml
 
-from attitude_core.config.scenario import (
-    Scenario,
-    ScenarioError,
-    flatten_parameters,
-    load_scenario,
-)
-from attitude_core.gnc.ephemeris import parse_epoch_utc
+from attitude_core.config.scenario import Scenario, ScenarioError
+from attitude_core.config.scenario_flatten import flatten_parameters
+from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.models.ephemeris import parse_epoch_utc
 from attitude_core.yamlio import load_strict
 
 __all__ = [

@@ -14,8 +14,8 @@ import time
 from collections.abc import Sequence
 from typing import Any
 
-from attitude_core.closed_loop import run_closed_loop
-from attitude_core.gnc.mrp import principal_angle, relative
+from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.models.mrp import principal_angle, relative
 from attitude_core.record.summary import summarize
 
 from .draw import base_parameters, draw_run, scenario_text

@@ -14,8 +14,8 @@ import numpy.typing as npt
 from skimage.measure import marching_cubes
 
 from attitude_core.config.scenario import Scenario
-from attitude_core.gnc.constraints import ConeGeometry, KeepInCones
-from attitude_core.gnc.mrp import Vec3, dcm_from_mrp
+from attitude_core.models.constraints import ConeGeometry, KeepInCones
+from attitude_core.models.mrp import Vec3, dcm_from_mrp
 
 __all__ = [
     "Pair",

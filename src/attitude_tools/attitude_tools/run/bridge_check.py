@@ -19,7 +19,8 @@ import shutil
 import sys
 from pathlib import Path
 
-from attitude_core.config.scenario import ScenarioError, load_scenario
+from attitude_core.config.scenario import ScenarioError
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.time_mode import TimeMode
 from attitude_tools.run.environment import ros_environment
 from attitude_tools.run.errors import RunError

@@ -30,8 +30,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from attitude_core.config import node_graph as graph
 from attitude_core.config.parameters import ParameterError
-from attitude_core.contract import node_graph as graph
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.runtime.run_identity import namespace_error, node_name_error
 from attitude_tools.output.rundir import OutputDirError

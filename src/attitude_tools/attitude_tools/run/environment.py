@@ -10,7 +10,7 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from attitude_core.contract.node_graph import NodeSpec
+from attitude_core.config.node_graph import NodeSpec
 from attitude_tools.ros2_cli import MultipleExecutables, PackageNotFound, find_executable
 from attitude_tools.run.errors import RunError
 

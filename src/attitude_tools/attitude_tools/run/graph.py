@@ -11,8 +11,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from attitude_core.contract import node_graph
-from attitude_core.contract.node_graph import NodeSpec
+from attitude_core.config import node_graph
+from attitude_core.config.node_graph import NodeSpec
 from attitude_core.runtime.process_identity import OWNER_ENV, ProcessIdentity
 from attitude_tools.run.environment import node_executables
 from attitude_tools.run.processes import die_with_parent

@@ -7,9 +7,9 @@ from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
 
+from attitude_core.config.node_graph import NodeSpec
 from attitude_core.config.param_overrides import check_overrides, parse_assignment
 from attitude_core.config.parameters import NodeParameterError
-from attitude_core.contract.node_graph import NodeSpec
 from attitude_core.yamlio import load_strict
 
 __all__ = ["check_node_params"]

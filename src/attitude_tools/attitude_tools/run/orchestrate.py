@@ -26,9 +26,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from attitude_core.config.scenario import Scenario, ScenarioError, load_scenario
-from attitude_core.contract import node_graph as graph
-from attitude_core.contract.node_graph import NodeSpec
+from attitude_core.config import node_graph as graph
+from attitude_core.config.node_graph import NodeSpec
+from attitude_core.config.scenario import Scenario, ScenarioError
+from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, IMU, STAR_TRACKER
 from attitude_core.runtime import run_identity

@@ -1,0 +1,196 @@
+"""The guidance of a scenario: the FEPF planner, the guidance and what they share.
+
+Inputs: a :class:`~attitude_core.config.scenario.Scenario` and the start ``sigma_0``
+(``sigma_BN``; default the scenario's). Outputs: :func:`planner_from_scenario` (the FEPF
+of eqs. 6-10, 12 with its buffered cones), :func:`guidance_from_scenario` (the FEPF
+closed on the measured state, with limits, route, moving sky and knowledge),
+:func:`prepare_guidance` (FIS tables, roadmap, first route: once, before the first
+state), :func:`buffer_deg` (the safety-buffer rule), :func:`scenario_eta_s`.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+
+import numpy as np
+
+from attitude_core.config.scenario import Scenario
+from attitude_core.fsw.guidance.fepf import FepfPlanner, load_planner_fis
+from attitude_core.fsw.guidance.fuzzy import MamdaniFis, lookup_table
+from attitude_core.fsw.guidance.guidance import Executor, Guidance
+from attitude_core.fsw.guidance.moving_sky import SkyGuide, nominal_eta_s
+from attitude_core.fsw.guidance.profile_limits import GuidanceLimits, time_bound_s
+from attitude_core.fsw.guidance.route import Route, RoutePlanner
+from attitude_core.models.mrp import Vec3Like, angle_between_single
+
+__all__ = [
+    "PreparedGuidance",
+    "buffer_deg",
+    "scenario_fis",
+    "planner_from_scenario",
+    "scenario_eta_s",
+    "guidance_from_scenario",
+    "moving_sky_guide",
+    "prepare_guidance",
+    "route_planner",
+]
+
+
+@dataclass(frozen=True)
+class PreparedGuidance:
+    """What a guidance needs before its first state (:func:`prepare_guidance`): the FIS
+    (their lookup tables built), the route planner (its roadmap built) and the route from
+    the scenario's start."""
+
+    fis: tuple[MamdaniFis, MamdaniFis]
+    routes: RoutePlanner
+    initial_route: Route
+
+
+def buffer_deg(scenario: Scenario, sigma_0: Vec3Like) -> float:
+    """The planner's safety buffer, deg: ``planner.safety_margin_deg``, reduced to half
+    of the start's (``sigma_0``) or the goal's margin when either lies closer to a cone
+    (on a moving sky, the start's at ``t = 0`` only: the goal's clearance is watched over
+    time, :mod:`attitude_core.fsw.guidance.goal_watch`). With declared sensors the knowledge
+    3-sigma (:attr:`Scenario.knowledge`) is added to ``safety_margin_deg``: the true
+    boresight may be that far from the estimated one."""
+    exact = scenario.exact_geometry()  # margins only: no fine rim sampling needed
+    ends = [np.asarray(sigma_0, dtype=float)]
+    if scenario.sky.static:
+        ends.append(scenario.desired_mrp)
+    end_margin = min(float(exact.min_margin_deg(end)) for end in ends)
+    wanted = scenario.planner.safety_margin_deg + scenario.knowledge.attitude_3sigma_deg
+    return min(wanted, 0.5 * max(end_margin, 0.0))
+
+
+def scenario_fis(scenario: Scenario) -> tuple[MamdaniFis, MamdaniFis]:
+    """The attractive and repulsive FIS of a scenario (paths relative to its file)."""
+    return load_planner_fis(scenario.planner, os.path.dirname(os.path.abspath(scenario.source)))
+
+
+def planner_from_scenario(
+    scenario: Scenario,
+    sigma_0: Vec3Like | None = None,
+    watchdog: bool = True,
+    fis: tuple[MamdaniFis, MamdaniFis] | None = None,
+) -> FepfPlanner:
+    """The planner of a scenario, starting at ``sigma_0`` (default: the scenario's),
+    with ``fis`` if already loaded (:func:`scenario_fis`).
+
+    The safety buffer is the configured ``planner.safety_margin_deg``, reduced to
+    half of the start or goal margin when either lies closer to a cone than that.
+    """
+    cfg = scenario.planner
+    start = scenario.initial_mrp if sigma_0 is None else np.asarray(sigma_0, dtype=float)
+    inflation = buffer_deg(scenario, start)
+    geometry = scenario.cone_geometry(inflation_deg=inflation, samples=cfg.obstacle_samples)
+    return FepfPlanner(
+        geometry,
+        start,
+        scenario.desired_mrp,
+        scenario.dt_s,
+        cfg,
+        scenario_fis(scenario) if fis is None else fis,
+        watchdog,
+    )
+
+
+def scenario_eta_s(scenario: Scenario, sigma_0: Vec3Like) -> float:
+    """Expected slew time of a scenario from ``sigma_0``: the principal angle to the goal
+    with half again for the detours (:func:`nominal_eta_s`)."""
+    rotation = 1.5 * angle_between_single(sigma_0, scenario.desired_mrp)
+    act = scenario.actuators
+    lim = GuidanceLimits.from_actuators(
+        scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+    )
+    bound = time_bound_s(rotation, lim.max_rate_rad_s, lim.alpha_max_rad_s2)
+    return nominal_eta_s(rotation, scenario.planner.max_attractive_rate_mrp_s, bound)
+
+
+def guidance_from_scenario(
+    scenario: Scenario,
+    sigma_0: Vec3Like | None = None,
+    executor: Executor | None = None,
+    routes: RoutePlanner | None = None,
+    initial_route: Route | None = None,
+    prepared: PreparedGuidance | None = None,
+) -> Guidance:
+    """The guidance of a scenario from ``sigma_0`` (default: the scenario's start);
+    ``routes`` may be a prepared :func:`route_planner` of the same scenario and
+    ``initial_route`` a route it planned from ``sigma_0`` (planned here otherwise).
+    ``prepared`` (:func:`prepare_guidance`) gives both: its route is taken when ``sigma_0`` is
+    the scenario's start (on estimates: within the first fix's 3-sigma of it; the
+    planner node then answers its first state without planning a route)."""
+    act = scenario.actuators
+    fis = None if prepared is None else prepared.fis
+    planner = planner_from_scenario(scenario, sigma_0, watchdog=False, fis=fis)
+    if prepared is not None:
+        routes = prepared.routes
+        fresh = np.allclose(planner.sigma_t, scenario.initial_mrp, rtol=0.0, atol=1e-9)
+        first_fix_deg = scenario.knowledge.first_fix_3sigma_deg  # 0: perfect knowledge
+        if not fresh and first_fix_deg > 0.0:  # an estimated start: the start within it
+            off = math.degrees(angle_between_single(planner.sigma_t, scenario.initial_mrp))
+            fresh = off <= first_fix_deg
+        initial_route = prepared.initial_route if fresh else None
+    sky_guide = moving_sky_guide(scenario, planner.geometry.inflation_deg)
+    if routes is None or routes.buffer_deg != planner.geometry.inflation_deg:
+        routes = route_planner(scenario, planner.geometry.inflation_deg)
+    if initial_route is None and sky_guide is not None:
+        eta = scenario_eta_s(scenario, planner.sigma_t)
+        initial_route = sky_guide.plan_route(0.0, eta, planner.sigma_t, planner.goal)
+    return Guidance(
+        planner,
+        GuidanceLimits.from_actuators(scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s),
+        scenario.guidance_arrival.attitude_tol_deg,
+        scenario.guidance_arrival.rate_tol_rad_s,
+        routes,
+        scenario.planner.global_route,
+        executor,
+        initial_route,
+        sky_guide,
+        scenario.knowledge,
+    )
+
+
+def moving_sky_guide(scenario: Scenario, buffer_deg: float) -> SkyGuide | None:
+    """The moving-sky guide of a scenario (None on a static sky)."""
+    if scenario.sky.static:
+        return None
+    return SkyGuide(
+        scenario.sky,
+        scenario.desired_mrp,
+        buffer_deg,
+        scenario.planner.obstacle_samples,
+        scenario.constraint_names,
+        scenario.sim_time_s,
+        scenario.planner.roadmap_nodes,
+    )
+
+
+def prepare_guidance(scenario: Scenario) -> PreparedGuidance:
+    """Everything worth doing before the first state, once: the FIS lookup tables
+    (cached per process), the roadmap and the route from the scenario's start."""
+    fis = scenario_fis(scenario)
+    for one in fis:
+        lookup_table(one)
+    buffer = buffer_deg(scenario, scenario.initial_mrp)
+    routes = route_planner(scenario, buffer)
+    guide = moving_sky_guide(scenario, buffer)
+    if guide is None:
+        initial_route = routes.plan(scenario.initial_mrp, scenario.desired_mrp)
+    else:
+        eta = scenario_eta_s(scenario, scenario.initial_mrp)
+        initial_route = guide.plan_route(0.0, eta, scenario.initial_mrp, scenario.desired_mrp)
+    return PreparedGuidance(fis, routes, initial_route)
+
+
+def route_planner(scenario: Scenario, buffer_deg: float) -> RoutePlanner:
+    """The route planner of a scenario for a planner buffer of ``buffer_deg``."""
+    return RoutePlanner(
+        scenario.exact_geometry(),
+        buffer_deg,
+        scenario.constraint_names,
+        scenario.planner.roadmap_nodes,
+    )

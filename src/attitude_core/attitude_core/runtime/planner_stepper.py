@@ -1,0 +1,177 @@
+"""The planner node's logic without ROS: the guidance's answer to each measured state.
+
+Inputs: each complete measured state (stamp, ns; ``sigma_BN``; ``omega_B``, rad/s) and
+whether the node is active. Outputs: :meth:`PlannerStepper.step`, the target
+(``sigma_RN``; ``omega_t``, target axes, rad/s), published first, then
+:meth:`PlannerStepper.report`, the measured attitude's keep-out margin (deg, eq. 5),
+the ``/diagnostics`` values and a status to publish; each with the (level, text)
+lines to log.
+
+* The guidance (:class:`attitude_core.fsw.guidance.guidance.Guidance`) is built from the
+  first measured attitude (a restarted planner resumes from where the spacecraft is),
+  with what :func:`attitude_core.assembly.guidance.prepare_guidance` made before it;
+  routes planned again during the run are computed in a worker thread.
+* Clock: the first state's stamp is the guidance's ``t = 0`` (the sky's time is
+  ``epoch_utc`` plus the stamps' time since then).
+* Inactive after its first target (a deactivated node): the last target is held at
+  rest, a safe stop; nothing is stepped.
+* A new acceleration derating is logged; a new status is reported once.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+import numpy.typing as npt
+
+from attitude_core.assembly.guidance import (
+    PreparedGuidance,
+    guidance_from_scenario,
+    prepare_guidance,
+)
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.diagnostics import PlannerDiagnostics
+from attitude_core.contract.status import PlannerStatus
+from attitude_core.contract.topics import NS_PER_S
+from attitude_core.fsw.guidance.guidance import Executor, Guidance, GuidanceOutput
+from attitude_core.runtime.planner_report import planner_diagnostics
+
+__all__ = ["PlannerStep", "PlannerReport", "PlannerStepper"]
+
+Vector = npt.NDArray[np.float64]
+Logs = list[tuple[str, str]]
+
+
+@dataclass(frozen=True)
+class PlannerStep:
+    """The target of one state. ``result`` is None when the target is held (inactive):
+    ``sigma_t`` is then the last target and ``omega_t`` zero."""
+
+    stamp_ns: int
+    t_s: float  # guidance time: since the first state, s
+    sigma_bn: Vector
+    sigma_t: Vector
+    omega_t: Vector
+    result: GuidanceOutput | None = None
+    step_s: float = 0.0  # wall time of the guidance update, s
+    logs: Logs = field(default_factory=list)
+
+    @property
+    def held(self) -> bool:
+        return self.result is None
+
+
+@dataclass(frozen=True)
+class PlannerReport:
+    """What follows a step's target: the margin, the diagnostics, and ``status`` when
+    it changed (None: unchanged, nothing to publish)."""
+
+    margin_deg: float
+    diagnostics: PlannerDiagnostics
+    status: PlannerStatus | None
+    logs: Logs
+
+
+class PlannerStepper:
+    """See the module docstring. ``prepared``: :func:`prepare_guidance` of ``scenario``
+    (made here when not given); ``executor``: where routes are planned again (default: a
+    worker thread of its own, stopped by :meth:`close`)."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        prepared: PreparedGuidance | None = None,
+        executor: Executor | None = None,
+    ) -> None:
+        self.scenario = scenario
+        self.prepared = prepare_guidance(scenario) if prepared is None else prepared
+        self.own_thread: ThreadPoolExecutor | None = None
+        if executor is None:
+            self.own_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="route")
+            executor = self.own_thread
+        self.executor = executor
+        self.guidance: Guidance | None = None
+        self.first_stamp_ns = 0
+        self.last_stamp_ns = 0  # the last state stepped
+        self.status: PlannerStatus | None = None
+        self.derating = 1.0
+        self.sigma_t: Vector | None = None  # the last target
+
+    def takes_input(self, active: bool) -> bool:
+        """Active, or deactivated after its first target: it then holds that target."""
+        return active or self.guidance is not None
+
+    def step(
+        self, stamp_ns: int, sigma_bn: Vector, omega_b: Vector, active: bool = True
+    ) -> PlannerStep:
+        """The target of the state stamped ``stamp_ns``; held when not ``active``."""
+        if not active:
+            held = sigma_bn if self.sigma_t is None else self.sigma_t
+            t_s = (stamp_ns - self.first_stamp_ns) / NS_PER_S
+            return PlannerStep(stamp_ns, t_s, sigma_bn, held, np.zeros(3))
+        logs: Logs = []
+        if self.guidance is None:
+            self.guidance = self._start(stamp_ns, sigma_bn, logs)
+        t0 = time.perf_counter()
+        t_s = (stamp_ns - self.first_stamp_ns) / NS_PER_S
+        result = self.guidance.update(t_s, sigma_bn, omega_b)
+        step_s = time.perf_counter() - t0
+        self.last_stamp_ns = stamp_ns
+        self.sigma_t = np.array(result.target.sigma_t, dtype=float)
+        omega_t = np.array(result.target.omega_t, dtype=float)
+        return PlannerStep(stamp_ns, t_s, sigma_bn, self.sigma_t, omega_t, result, step_s, logs)
+
+    def report(self, step: PlannerStep, rejected: int) -> PlannerReport:
+        """The report of a stepped (not held) ``step``; ``rejected``: messages refused."""
+        if step.result is None:
+            raise ValueError("a held target has no report of its own")
+        margin = self.scenario.sky.min_margin_deg_single(step.t_s, step.sigma_bn)
+        diag = planner_diagnostics(self.guidance, step.result, step.step_s, margin, rejected)
+        logs: Logs = []
+        at = f"at stamp {step.stamp_ns / NS_PER_S:.3f} s"
+        derating = step.result.derating
+        if derating != self.derating:
+            self.derating = derating
+            logs.append(
+                (
+                    "warning",
+                    "the body fell behind a profile within the declared actuator limits: "
+                    "the plant is weaker than the scenario says; profile acceleration now "
+                    f"{derating:g} of the declared {at}",
+                )
+            )
+        status = step.result.target.status
+        changed = None if status == self.status else status
+        if changed is not None:
+            self.status = changed
+            logs.append(("info", f"status {changed} {at}"))
+        return PlannerReport(margin, diag, changed, logs)
+
+    def _start(self, stamp_ns: int, sigma_bn: Vector, logs: Logs) -> Guidance:
+        """The guidance from the first measured attitude; its stamp starts the clock."""
+        guidance = guidance_from_scenario(
+            self.scenario, sigma_0=sigma_bn, executor=self.executor, prepared=self.prepared
+        )
+        self.first_stamp_ns = stamp_ns
+        logs.append(("info", f"planning from sigma_BN = {sigma_bn.round(6).tolist()}"))
+        route = guidance.route
+        if route is not None and route.feasible:
+            logs.append(
+                (
+                    "info",
+                    f"global route: {route.legs} leg(s), "
+                    f"{np.degrees(route.rotation_rad):.1f} deg of rotation, "
+                    f"clearance {route.clearance_deg:.2f} deg",
+                )
+            )
+        elif route is not None:
+            logs.append(("error", f"infeasible: {route.reason}"))
+        return guidance
+
+    def close(self) -> None:
+        """Stop its own route thread (a route in progress is dropped)."""
+        if self.own_thread is not None:
+            self.own_thread.shutdown(wait=False, cancel_futures=True)
