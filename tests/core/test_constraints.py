@@ -5,12 +5,9 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation, Slerp
 
-from attitude_core.models.constraints import (
-    ConeGeometry,
-    KeepInCones,
-    _fiber_circles,
-    _unit_perpendicular,
-)
+from attitude_core.models.cone_math import unit_perpendicular
+from attitude_core.models.constraints import ConeGeometry, KeepInCones
+from attitude_core.models.mrp_obstacles import fiber_circles
 
 PAPER = dict(
     boresights_body=[[1.0, 0.0, 0.0]],
@@ -286,7 +283,7 @@ def test_dense_margin_of_a_one_sample_run_is_that_samples_margin():
 
 
 def _rim_circles_one_call_per_rim(g: ConeGeometry):
-    """The rim circles with one ``_fiber_circles`` call per constraint (the plain form)."""
+    """The rim circles with one ``fiber_circles`` call per constraint (the plain form)."""
     k = g.samples
     phi = 2.0 * np.pi * np.arange(k) / k
     cones = [
@@ -303,12 +300,12 @@ def _rim_circles_one_call_per_rim(g: ConeGeometry):
     ]
     out = []
     for s, c, beta in cones:
-        e1 = _unit_perpendicular(c)
+        e1 = unit_perpendicular(c)
         e2 = np.cross(c, e1)
         b = g._rim(c, e1, e2, beta, phi)
         if np.max(b @ s) > 1.0 - 1e-9:
             b = g._rim(c, e1, e2, beta, phi + np.pi / k)
-        out.append(_fiber_circles(s, b))
+        out.append(fiber_circles(s, b))
     return tuple(np.concatenate(x) for x in zip(*out, strict=True))
 
 

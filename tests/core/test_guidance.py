@@ -15,7 +15,7 @@ from attitude_core.config.scenario import ActuatorLimits
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.fsw.control.pd import PdGains, commanded_torque
-from attitude_core.fsw.guidance.guidance import (
+from attitude_core.fsw.guidance.profile_limits import (
     GYRO_SHARE,
     RATE_USE,
     GuidanceLimits,

@@ -19,7 +19,7 @@ import pytest
 from attitude_core.assembly.guidance import guidance_from_scenario, prepare_guidance
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.fsw.guidance.guidance import ImmediateExecutor
+from attitude_core.fsw.guidance.guidance_base import ImmediateExecutor
 from attitude_core.runtime.planner_stepper import PlannerStepper
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -18,12 +18,13 @@ from scipy.spatial.transform import Rotation, Slerp
 from attitude_core.assembly.guidance import guidance_from_scenario, route_planner
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.fsw.guidance import guidance as guidance_module
-from attitude_core.fsw.guidance.guidance import ROUTE_LATENCY_S
+from attitude_core.fsw.guidance import guidance_routes
+from attitude_core.fsw.guidance.guidance_routes import ROUTE_LATENCY_S
 from attitude_core.fsw.guidance.route import RoutePlanner, roadmap, super_fibonacci_quaternions
 from attitude_core.fsw.guidance.route_following import corner_speed
 from attitude_core.loop.closed_loop import run_closed_loop
-from attitude_core.models.constraints import ConeGeometry, short_rotation_single
+from attitude_core.models.cone_math import short_rotation_single
+from attitude_core.models.constraints import ConeGeometry
 from attitude_core.models.mrp import angle_between_single, principal_angle, relative
 from attitude_core.record.summary import summarize
 
@@ -239,7 +240,7 @@ def test_stalled_target_gets_a_new_route_off_the_step_path(threaded, monkeypatch
     follows it ROUTE_LATENCY_S later. Without the new route the slew ends stuck."""
     sc = load_scenario(SCENARIOS / "fepf_stall.yaml")
     with monkeypatch.context() as m:
-        m.setattr(guidance_module, "ROUTE_REPLANS", 0)
+        m.setattr(guidance_routes, "ROUTE_REPLANS", 0)
         stalled = guidance_from_scenario(sc, initial_route=_straight_route(sc))
         _fly(stalled, sc, sc.n_steps)
     assert stalled.status == PlannerStatus.STUCK

@@ -19,7 +19,8 @@ import numpy as np
 from attitude_core.config.scenario import Scenario
 from attitude_core.fsw.guidance.fepf import FepfPlanner, load_planner_fis
 from attitude_core.fsw.guidance.fuzzy import MamdaniFis, lookup_table
-from attitude_core.fsw.guidance.guidance import Executor, Guidance
+from attitude_core.fsw.guidance.guidance import Guidance
+from attitude_core.fsw.guidance.guidance_base import Executor
 from attitude_core.fsw.guidance.moving_sky import SkyGuide, nominal_eta_s
 from attitude_core.fsw.guidance.profile_limits import GuidanceLimits, time_bound_s
 from attitude_core.fsw.guidance.route import Route, RoutePlanner

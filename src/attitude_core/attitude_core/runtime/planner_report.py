@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 
 from attitude_core.contract.diagnostics import PlannerDiagnostics
-from attitude_core.fsw.guidance.guidance import Guidance, GuidanceOutput
+from attitude_core.fsw.guidance.guidance import Guidance
+from attitude_core.fsw.guidance.guidance_base import GuidanceOutput
 
 __all__ = ["planner_diagnostics"]
 

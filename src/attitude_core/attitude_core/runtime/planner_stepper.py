@@ -36,7 +36,8 @@ from attitude_core.config.scenario import Scenario
 from attitude_core.contract.diagnostics import PlannerDiagnostics
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S
-from attitude_core.fsw.guidance.guidance import Executor, Guidance, GuidanceOutput
+from attitude_core.fsw.guidance.guidance import Guidance
+from attitude_core.fsw.guidance.guidance_base import Executor, GuidanceOutput
 from attitude_core.runtime.planner_report import planner_diagnostics
 
 __all__ = ["PlannerStep", "PlannerReport", "PlannerStepper"]

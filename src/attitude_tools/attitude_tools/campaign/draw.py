@@ -58,7 +58,7 @@ from attitude_core.config.scenario_flatten import flatten_parameters
 from attitude_core.config.scenario_loader import parse_scenario
 from attitude_core.config.scenario_loader import scenario_yaml as to_yaml
 from attitude_core.config.scenario_schema import GROUPS
-from attitude_core.models.constraints import margins_deg_from_dcm
+from attitude_core.models.cone_math import margins_deg_from_dcm
 from attitude_core.yamlio import load_strict
 
 from .spec import MAX_REDRAWS, CampaignSpec, utc_text

@@ -12,7 +12,7 @@ attitudes and costs its rotation angle. For a scenario (:class:`RoutePlanner`):
    a margin changes by at most the rotation angle (a body vector turns by at most that
    angle), so an edge with ``m_u + m_v >= theta`` is free; any other edge gets the exact
    smallest margin along its rotation in closed form
-   (:func:`attitude_core.models.constraints.arc_cos_extremes`).
+   (:func:`attitude_core.models.cone_math.arc_cos_extremes`).
 3. The start and the goal join the roadmap through their nearest nodes (same check);
    a free direct rotation ends the search at once.
 4. Dijkstra (SciPy) by rotation angle; then the route is shortcut greedily: from each
@@ -43,7 +43,8 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 from scipy.spatial.transform import Rotation
 
-from attitude_core.models.constraints import RIM_FLOOR, ConeGeometry, arc_cos_extremes
+from attitude_core.models.cone_math import arc_cos_extremes
+from attitude_core.models.constraints import RIM_FLOOR, ConeGeometry
 from attitude_core.models.mrp import Vec3Like
 
 __all__ = [

@@ -27,7 +27,7 @@ import numpy.typing as npt
 
 from attitude_core.fsw.guidance.fepf import FepfPlanner
 from attitude_core.fsw.guidance.route import Route
-from attitude_core.models.constraints import short_rotation_single
+from attitude_core.models.cone_math import short_rotation_single
 from attitude_core.models.mrp import Vec3, Vec3Like, angle_between_single, compose, relative
 
 __all__ = ["CARROTS", "MIN_SLACK_DEG", "RouteFollower", "braking_speed", "corner_speed"]
