@@ -12,9 +12,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.config.scenario_loader import load_scenario, parse_scenario
 from attitude_core.contract.status import PlannerStatus
+from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.yamlio import load_strict
 
 HERE = Path(__file__).resolve().parent

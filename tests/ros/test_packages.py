@@ -3,13 +3,14 @@
 import ast
 import configparser
 import os
-import re
 import sys
 import tomllib
 from pathlib import Path
 
 import pytest
 from catkin_pkg.package import parse_package
+from packaging.requirements import Requirement
+from packaging.utils import canonicalize_name
 
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / 'src'
@@ -409,14 +410,9 @@ def test_pip_check_is_clean_in_the_venv():
 # setup.py's install_requires does, by their distribution names (src/<pkg>/pyproject.toml).
 
 
-def _distribution(name):
-    """A distribution name as pip compares them (PEP 503)."""
-    return re.sub(r'[-_.]+', '-', name).lower()
-
-
 def _pip_distribution(pip_package):
     project = tomllib.loads((SRC / pip_package / 'pyproject.toml').read_text())['project']
-    return _distribution(project['name'])
+    return canonicalize_name(project['name'])
 
 
 def _pip_packages_imported(pkg):
@@ -433,7 +429,7 @@ def _pip_packages_imported(pkg):
 def _install_requires(pkg):
     value = _setup_kwargs(pkg).get('install_requires', [])
     requires = ast.literal_eval(value) if isinstance(value, ast.AST) else value
-    return {_distribution(re.match(r'[A-Za-z0-9._-]+', r).group()) for r in requires}
+    return {canonicalize_name(Requirement(r).name) for r in requires}
 
 
 def test_the_pip_import_finder_sees_the_bringup_timeline():
