@@ -19,7 +19,8 @@ from pathlib import Path
 import pytest
 
 from attitude_core.contract import diagnostics, topics
-from attitude_core.contract.status import PlannerStatus
+from attitude_core.contract.faults import FaultKind
+from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUT_FILE = ROOT / "docs" / "foxglove_layout.json"
@@ -469,6 +470,7 @@ def test_diagnostics_names_match_the_planner(layout):
     """Filters and selections on /diagnostics name what the planner node publishes: the
     names of the diagnostics contract."""
     literals = {diagnostics.STATUS_NAME, diagnostics.HARDWARE_ID, *diagnostics.KEYS}
+    literals |= {kind.diagnostic_name for kind in FaultKind}
     for panel_id, config in layout["configById"].items():
         for path, _ in message_paths(panel_id, config):
             topic, elements = parse_message_path(path)
@@ -488,7 +490,11 @@ def test_diagnostics_names_match_the_planner(layout):
 
 def test_status_states_are_the_planner_statuses(layout):
     statuses = {s.value for s in PlannerStatus}
-    panels = [c for k, c in layout["configById"].items() if panel_type(k) == "StateTransitions"]
+    panels = [
+        c
+        for k, c in layout["configById"].items()
+        if panel_type(k) == "StateTransitions" and k != "StateTransitions!faults"
+    ]
     assert panels
     for config in panels:
         for p in config["paths"]:
@@ -521,3 +527,15 @@ def test_3d_panel_frames_come_from_a_script(layout, scripts):
         assert config["followTf"] == topics.INERTIAL_FRAME
         for topic in config.get("topics", {}):
             assert topic in CONTRACT or topic in scripts, f"{panel_id}: {topic}"
+
+
+def test_every_fault_kind_is_on_the_faults_timeline_with_its_levels(layout):
+    """The faults panel shows each kind's ``/diagnostics`` status (``fdir/<kind>``) by
+    level: on (its kind's level) and ended (OK), stamped."""
+    config = layout["configById"]["StateTransitions!faults"]
+    by_value = {p["value"]: p for p in config["paths"]}
+    for kind in FaultKind:
+        path = by_value[f'{topics.DIAGNOSTICS}.status[:]{{name=="{kind.diagnostic_name}"}}.level']
+        assert path["timestampMethod"] == "headerStamp"
+        levels = {s["value"] for s in path["customStates"]["states"]}
+        assert {str(int(DiagnosticLevel.OK)), str(int(kind.level))} <= levels

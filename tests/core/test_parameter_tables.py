@@ -143,6 +143,7 @@ def test_bounded_rows_include_the_closed_ones():
         "instruments.star_tracker.half_angle_deg",
         "orbit.eccentricity",
         "orbit.inclination_deg",
+        "link.drop_rate",
         *(f"instruments.star_tracker.exclusion_deg.object_{k}" for k in (1, 2, 3)),
     }
 
@@ -158,6 +159,7 @@ def test_documented_rules_of_the_angle_and_sample_rows():
         "instruments.star_tracker.half_angle_deg": "(0, 90)",
         "orbit.eccentricity": "[0, 1)",
         "orbit.inclination_deg": "[0, 180]",
+        "link.drop_rate": "[0, 1)",
         **{f"instruments.star_tracker.exclusion_deg.object_{k}": "[0, 180)" for k in (1, 2, 3)},
     }
     assert row("dt_s").rule == row("sim_time_s").rule == "> 0"

@@ -19,6 +19,7 @@ from attitude_core.config import node_graph as g
 from attitude_core.config.node_parameters import CONTROLLER, PLANNER, RECORDER, SIMULATOR
 from attitude_core.contract import topics as t
 from attitude_core.contract.diagnostics import KEYS, PlannerDiagnostics
+from attitude_core.contract.faults import FaultKind
 from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
 from attitude_ros import endpoints as endpoints_module
 from attitude_ros.intake import subscribe_paired
@@ -49,6 +50,7 @@ def test_planner_statuses_codes_levels_and_ends_slew():
         ("stuck", 2, DiagnosticLevel.WARN, True),
         ("infeasible", 3, DiagnosticLevel.ERROR, True),
         ("blocked", 4, DiagnosticLevel.WARN, False),
+        ("safe_mode", 5, DiagnosticLevel.ERROR, True),
     ]
 
 
@@ -79,7 +81,7 @@ def test_from_code_inverts_code():
     assert len(set(codes)) == len(codes)
     for status in PlannerStatus:
         assert PlannerStatus.from_code(status.code) is status
-    for bad in (-1, 5, 99):
+    for bad in (-1, 6, 99):
         with pytest.raises(ValueError, match=f"no planner status has code {bad}"):
             PlannerStatus.from_code(bad)
 
@@ -89,10 +91,23 @@ def test_ending_statuses_in_code_order():
         PlannerStatus.ARRIVED,
         PlannerStatus.STUCK,
         PlannerStatus.INFEASIBLE,
+        PlannerStatus.SAFE_MODE,
     )
     assert [s.code for s in PlannerStatus.ending()] == sorted(
         s.code for s in PlannerStatus if s.ends_slew
     )
+
+
+def test_fault_kinds_their_levels_and_diagnostic_names():
+    assert [(k.value, k.level, k.diagnostic_name) for k in FaultKind] == [
+        ("state_lost", DiagnosticLevel.WARN, "fdir/state_lost"),
+        ("star_tracker_outage", DiagnosticLevel.WARN, "fdir/star_tracker_outage"),
+        ("safe_mode", DiagnosticLevel.ERROR, "fdir/safe_mode"),
+    ]
+    for kind in FaultKind:
+        assert FaultKind.parse(kind.value) is kind
+    with pytest.raises(ValueError, match="is not a fault kind"):
+        FaultKind.parse("lost")
 
 
 # --- diagnostics -----------------------------------------------------------------------

@@ -29,7 +29,7 @@ from rclpy.serialization import deserialize_message
 from attitude_core.config import node_graph
 from attitude_core.config.parameters import NodeParameterError
 from attitude_core.config.scenario_loader import loads_scenario
-from attitude_core.contract.diagnostics import PlannerDiagnostics
+from attitude_core.contract.faults import reported_status
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S, Topic
 from attitude_core.runtime.recording import (
@@ -105,13 +105,12 @@ class BagRecorderNode(StackNode):
         once every stamped topic is there (none parsed once one has: later is later)."""
         stop = self.stop_rule
         for st in () if stop.status_stopped else deserialize_message(data, DiagnosticArray).status:
-            try:
-                status = PlannerDiagnostics.from_values({kv.key: kv.value for kv in st.values})
-            except ValueError:  # another node's diagnostics
+            status = reported_status(st.name, st.level[0], {kv.key: kv.value for kv in st.values})
+            if status is None:
                 continue
-            if stop.on_status(status.status, stamp_ns) and stop.stop_at_ns is not None:
+            if stop.on_status(status, stamp_ns) and stop.stop_at_ns is not None:
                 self.get_logger().info(
-                    f"planner status {status.status.value!r} at {stamp_ns / NS_PER_S:.3f} s: "
+                    f"planner status {status.value!r} at {stamp_ns / NS_PER_S:.3f} s: "
                     f"recording until {stop.stop_at_ns / NS_PER_S:.3f} s"
                 )
 

@@ -9,6 +9,16 @@ time and behind a hardware bridge. Messages with non-finite values, an unusable
 quaternion or a stamp older than the last torque are rejected, logged and counted,
 never turned into torque.
 
+The state watchdog (:mod:`attitude_core.fsw.fdir`) ticks on the stack's clock
+(:mod:`attitude_ros.loop_clock`: each ``/clock`` from a lockstep plant, else a wall timer
+of the loop's step): once the newest state is older than ``fdir.state_timeout_s`` the
+controller answers each tick itself, stamped with the tick, from the state predicted
+with the body model and the torques it commanded (towards the last target, held at
+rest; after ``fdir.predict_s`` braking the predicted rate, then zero torque; in safe
+mode after ``fdir.safe_after_s`` the same).
+Deactivated in real time, it sends a zero torque at once, so a plant that holds the
+last command holds a zero.
+
 ``fault.drop_torque_fraction`` (test mode, default 0) drops that fraction of the torque
 messages (seeded by ``fault.seed``), to test that a lossy link neither deadlocks a
 lockstep run nor breaks a constraint.
@@ -22,10 +32,13 @@ from geometry_msgs.msg import WrenchStamped
 
 from attitude_core.config import node_graph
 from attitude_core.fsw.control.pd import PdGains, commanded_torque
+from attitude_core.fsw.fdir.outage_control import OutageControl
+from attitude_core.fsw.fdir.state_watchdog import FdirMode
 from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
-from attitude_ros.convert import set_vector3
+from attitude_ros import convert as cv
+from attitude_ros.convert import log_faults, set_vector3
 from attitude_ros.endpoints import message, publisher
 from attitude_ros.intake import (
     attitude_value,
@@ -34,6 +47,7 @@ from attitude_ros.intake import (
     target_mrp_value,
     target_rate_value,
 )
+from attitude_ros.loop_clock import LoopClock
 from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
@@ -51,6 +65,7 @@ class PdControllerNode(StackNode):
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
         self.last_stamp: int | None = None  # stamp of the last torque, and the torque
         self.last_torque: WrenchStamped | None = None
+        self.first_stamp: int | None = None  # t = 0 of the watchdog's fault times
         # sigma_BN, omega_B, sigma_RN, omega_t of one stamp
         self.intake = StampPairing(4, StampGate(self.scenario.sim_time_s))
         self.guard = RunGuard(
@@ -58,6 +73,10 @@ class PdControllerNode(StackNode):
         )
         self.pub_torque = publisher(self, c.TORQUE)
         self.out_torque = message(c.TORQUE)  # refilled for each stamp
+        self.out_tick = message(c.TORQUE)  # refilled for each tick answered
+        self.outage = self.new_outage()
+        self.mode: FdirMode | None = None
+        self.clock = LoopClock(self, self.scenario.dt_s, self.on_tick, self.on_rebase)
         subscribe_paired(
             self,
             self.guard,
@@ -80,17 +99,48 @@ class PdControllerNode(StackNode):
     def rejected(self) -> int:
         return self.intake.rejected
 
+    def new_outage(self, origin_ns: int | None = None) -> OutageControl:
+        sc = self.scenario
+        limit = sc.actuators.max_torque_nm
+        return OutageControl(sc.watchdog, self.gains, limit, sc.inertia_kgm2, sc.dt_s, origin_ns)
+
+    def on_rebase(self) -> None:
+        """The first ``/clock``: the watchdog starts again on sim time (stamps), its
+        fault times from the first state's stamp."""
+        self.outage = self.new_outage(self.first_stamp)
+
     def answer(self, stamp: int, stamp_msg, inputs) -> None:
         sigma_bn, omega_b, sigma_t, omega_t = inputs
         limit = self.scenario.actuators.max_torque_nm
+        t = self.clock.state_time_ns(stamp)
+        self.first_stamp = stamp if self.first_stamp is None else self.first_stamp
+        ended = self.outage.measured(t, sigma_bn, omega_b, max(self.clock.now_ns(), t))
+        log_faults(self.get_logger(), ended, "states back: ")
         u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
-        u = u if self.active else 0.0 * u
+        u = u if self.active and not self.outage.safe else 0.0 * u
+        self.outage.answered(t, sigma_t, u)
         out = self.out_torque
         out.header.stamp = stamp_msg
         set_vector3(out.wrench.torque, u)
         self.publish(out)
         self.last_stamp = stamp
         self.last_torque = out
+
+    def on_tick(self, now: int) -> None:
+        """A tick of the stack's clock: the watchdog's answer when the state is stale."""
+        if not self.takes_input:
+            return
+        answer = self.outage.tick(now)
+        if answer is None:
+            return
+        log_faults(self.get_logger(), answer.opened)
+        if answer.mode != self.mode:
+            self.mode = answer.mode
+            self.get_logger().warning(f"state watchdog: {answer.mode} at {now / 1e9:.3f} s")
+        out = self.out_tick
+        cv.set_stamp(out.header.stamp, now)
+        set_vector3(out.wrench.torque, answer.torque_b if self.active else 0.0 * answer.torque_b)
+        self.publish(out)
 
     @property
     def takes_input(self) -> bool:
@@ -100,6 +150,11 @@ class PdControllerNode(StackNode):
 
     def deactivate(self) -> None:
         self.get_logger().info("deactivated: zero torque from now on")
+        if self.last_stamp is not None and not self.clock.lockstep:
+            out = self.out_tick  # real time: the plant holds the last command: a zero
+            cv.set_stamp(out.header.stamp, self.clock.now_ns())
+            set_vector3(out.wrench.torque, (0.0, 0.0, 0.0))
+            self.pub_torque.publish(out)
 
     def publish(self, out: WrenchStamped) -> None:
         if self.drop_fraction and self.rng.random() < self.drop_fraction:

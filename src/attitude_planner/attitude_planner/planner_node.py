@@ -12,8 +12,14 @@ attitude, eq. 5) and ``/diagnostics``; ``/planner/status`` (a ``PlannerStatus`` 
 A slew with no route is reported ``infeasible`` at the first state, with the reason in
 ``/diagnostics`` and in the log, and the target holds the start.
 
-It only reacts to messages, so lockstep simulation, real time and a hardware bridge
-look the same to it. A repeated stamp (a lockstep re-send) gets the same answer again;
+The state watchdog ticks on the stack's clock (:mod:`attitude_ros.loop_clock`: each
+``/clock`` from a lockstep plant, else a wall timer of the loop's step): a lost state's faults go to
+``/diagnostics`` (``fdir/<kind>``: WARN, then OK when states come back) and, after
+``fdir.safe_after_s`` without a state, ``safe_mode`` to ``/planner/status`` (ERROR);
+the guidance goes on from the first state after a gap.
+
+It otherwise only reacts to messages, so lockstep simulation, real time and a hardware
+bridge look the same to it. A repeated stamp (a lockstep re-send) gets the same answer again;
 an older stamp, a non-finite rate or an unusable quaternion is rejected, logged and
 counted.
 """
@@ -30,9 +36,17 @@ from attitude_core.runtime.planner_stepper import PlannerStepper
 from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
-from attitude_ros.convert import DiagnosticsOut, log_events, set_vector3
+from attitude_ros.convert import (
+    DiagnosticsOut,
+    fault_diagnostics,
+    log_events,
+    log_faults,
+    set_vector3,
+    stamp_msg,
+)
 from attitude_ros.endpoints import message, publisher
 from attitude_ros.intake import attitude_value, rate_value, subscribe_paired
+from attitude_ros.loop_clock import LoopClock
 from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard, diagnostics_events
@@ -64,6 +78,7 @@ class FepfPlannerNode(StackNode):
         state = ((c.ATTITUDE, attitude_value), (c.ANGULAR_VELOCITY, rate_value))
         # A lockstep re-send (same state) gets the same answer again: self.publish.
         subscribe_paired(self, self.guard, self.intake, state, self.answer, self.publish)
+        self.clock = LoopClock(self, sc.dt_s, self.on_tick, self.stepper.rebase_watchdog)
         self.get_logger().info(
             f"scenario '{sc.name}': FEPF variant {sc.planner.variant}, "
             f"{len(sc.instruments)} instrument(s), {len(sc.bright_objects)} bright object(s)"
@@ -82,10 +97,25 @@ class FepfPlannerNode(StackNode):
         """Active, or deactivated after its first target: it then holds that target."""
         return self.stepper.takes_input(self.active)
 
+    def on_tick(self, now: int) -> None:
+        """The watchdog's tick: the faults of a stale state, safe mode."""
+        if self.guidance is None or not self.active:
+            return
+        tick = self.stepper.tick(now)
+        log_faults(self.get_logger(), tick.faults)
+        for fault in tick.faults:
+            self.pub_diag.publish(fault_diagnostics(stamp_msg(now), fault))
+        if tick.status is not None:
+            self.get_logger().error(f"status {tick.status}: no measured state; zero torque")
+            self.pub_status.publish(String(data=tick.status.value))
+
     def answer(self, stamp: int, stamp_msg: Any, state: tuple[Any, ...]) -> None:
         sigma_bn, omega_b = state
-        step = self.stepper.step(stamp, sigma_bn, omega_b, self.active)
+        at = self.clock.state_time_ns(stamp)
+        step = self.stepper.step(stamp, sigma_bn, omega_b, self.active, at)
         log_events(self.get_logger(), step.logs)
+        for fault in step.faults:
+            self.pub_diag.publish(fault_diagnostics(stamp_msg, fault))
         self.out_mrp.header.stamp = stamp_msg
         self.out_rate.header.stamp = stamp_msg
         set_vector3(self.out_mrp.vector, step.sigma_t)

@@ -15,7 +15,8 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from attitude_core.contract import diagnostics
 from attitude_core.contract.diagnostics import PlannerDiagnostics
-from attitude_core.contract.status import PlannerStatus
+from attitude_core.contract.faults import Fault
+from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
 from attitude_core.contract.topics import NS_PER_S, Stamp
 from attitude_core.contract.topics import stamp_ns as stamp_ns  # re-exported for the nodes
 from attitude_core.contract.topics import topic as contract_topic
@@ -28,6 +29,15 @@ from attitude_core.models.mrp import Vec3Like, mrp_from_quat_single, quat_from_m
 def set_stamp(stamp: Stamp, ns: int) -> None:
     """Write integer nanoseconds into a ``builtin_interfaces/Time`` in place."""
     stamp.sec, stamp.nanosec = divmod(int(ns), NS_PER_S)
+
+
+def stamp_msg(ns: int) -> Any:
+    """A ``builtin_interfaces/Time`` of integer nanoseconds."""
+    from builtin_interfaces.msg import Time
+
+    t = Time()
+    set_stamp(t, ns)
+    return t
 
 
 def vector3(v: Any) -> npt.NDArray[np.float64]:
@@ -141,6 +151,34 @@ def bad_quaternion_xyzw(
         return None
     reason = bad_vector((x, y, z, w), "orientation")
     return reason or f"orientation quaternion has norm {norm:.6g}, not 1"
+
+
+def log_faults(logger: Any, faults: Iterable[Fault], prefix: str = "") -> None:
+    """Log each fault at its ``/diagnostics`` level (an ended one as info)."""
+    for fault in faults:
+        text = f"{prefix}{fault.kind}: {fault.detail}"
+        level = fault.diagnostic_level
+        if level >= DiagnosticLevel.ERROR:
+            logger.error(text)
+        elif level == DiagnosticLevel.WARN:
+            logger.warning(text)
+        else:
+            logger.info(text)
+
+
+def fault_diagnostics(stamp: Any, fault: Fault) -> Any:
+    """A ``/diagnostics`` message of one fault's start (its kind's level) or end (OK):
+    status ``fdir/<kind>``, the detail as message (:mod:`attitude_core.contract.faults`)."""
+    status = DiagnosticStatus(
+        name=fault.diagnostic_name,
+        hardware_id=diagnostics.HARDWARE_ID,
+        level=bytes([fault.diagnostic_level]),
+        message=fault.detail,
+        values=[KeyValue(key=k, value=v) for k, v in fault.diagnostic_values()],
+    )
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = stamp
+    return msg
 
 
 class DiagnosticsOut:

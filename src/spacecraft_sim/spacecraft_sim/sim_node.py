@@ -13,6 +13,10 @@ record) and the loop gets the measurements instead: the gyro on ``/spacecraft/im
 step and the star tracker on ``/spacecraft/star_tracker`` at its rate
 (:mod:`spacecraft_sim.sensor_out`, conventions in :mod:`attitude_core.contract.topics`),
 one draw per step, re-sent unchanged.
+
+Behind a rehearsal link (``link.*``) the true state of every step goes to
+``/spacecraft/truth/*`` and the loop gets what the link delivers, on the state topics;
+``/clock`` is never impaired (the stepping: :mod:`attitude_core.runtime.sim_stepper`).
 """
 
 from __future__ import annotations
@@ -20,20 +24,19 @@ from __future__ import annotations
 import time
 
 from rclpy.clock import Clock, ClockType
-from rosgraph_msgs.msg import Clock as ClockMsg
 
 from attitude_core.config import node_graph
 from attitude_core.runtime.sim_stepper import Action, Decision, SimStepper
 from attitude_ros import cdr
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
-from attitude_ros.endpoints import message, publisher, subscription
+from attitude_ros.endpoints import subscription
 from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
 
-from .sensor_out import SensorOut
+from .sim_out import SimOutputs
 
 LOOP_PERIOD_S = 0.02  # start-up polling and the lockstep torque-deadline check, s
 
@@ -47,16 +50,7 @@ class RigidBodySimNode(StackNode):
         sensing = sc.sensors is not None
         self.ready = node_graph.readiness(own.lockstep.expected_subscribers, sensing)
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
-        state_att, state_rate = c.TRUTH_TOPICS if sensing else c.STATE_TOPICS
-        self.pub_clock = publisher(self, c.CLOCK)
-        self.pub_att = publisher(self, state_att)
-        self.pub_rate = publisher(self, state_rate)
-        self.pub_applied = publisher(self, c.APPLIED_TORQUE)
-        self.msg_att = message(state_att)
-        self.msg_rate = message(state_rate)
-        self.sensors = None if sc.sensors is None else SensorOut(self, sc, sc.sensors)
-        self.msg_clock = ClockMsg()
-        self.msg_applied = message(c.APPLIED_TORQUE)
+        self.out = SimOutputs(self, sc, self.stepper.lockstep)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         stamp = lambda: self.stepper.state_stamp or 0
         self.guard = RunGuard(self, self.spec, sc, lambda code, _: self.finish(code), stamp)
@@ -75,8 +69,7 @@ class RigidBodySimNode(StackNode):
         return self.stepper.rejected
 
     def graph_ready(self) -> bool:
-        own_pubs = {c.ATTITUDE: self.pub_att, c.ANGULAR_VELOCITY: self.pub_rate}
-        own_pubs = self.sensors.publishers if self.sensors else own_pubs
+        own_pubs = self.out.state_publishers
         for name, n in self.ready.min_subscribers.items():
             pub = own_pubs.get(name)
             count = pub.get_subscription_count() if pub else self.count_subscribers(name)
@@ -96,7 +89,7 @@ class RigidBodySimNode(StackNode):
         decision = self.stepper.poll_graph(time.monotonic(), ready)
         if decision.action == Action.FAIL:
             self.get_logger().error(
-                f"{decision.logs[0][1]}: {self.pub_att.get_subscription_count()} state "
+                f"{decision.logs[0][1]}: {self.out.state.pub_att.get_subscription_count()} state "
                 f"listener(s), {self.sub_torque.get_publisher_count()} torque publisher(s)"
             )
             self.finish(decision.exit_code or 1)
@@ -122,28 +115,16 @@ class RigidBodySimNode(StackNode):
         self.do(decision)
 
     def do(self, d: Decision) -> None:
-        """Publish and log what the stepper decided; the state first (the loop waits)."""
+        """Publish and log what the stepper decided; the state first (the loop waits).
+        Behind a link, steps the stepper takes at once (``more``) are published in turn."""
+        self._do(d)
+        while d.more and not self.done and self.active:
+            d = self.stepper.step_on(time.monotonic())
+            self._do(d)
+
+    def _do(self, d: Decision) -> None:
         cv.log_events(self.get_logger(), d.logs)
-        if d.state is not None:
-            if d.state.clock_ns is not None:  # lockstep only
-                cv.set_stamp(self.msg_clock.clock, d.state.clock_ns)
-            cv.set_stamp(self.msg_att.header.stamp, d.state.stamp_ns)
-            cv.set_stamp(self.msg_rate.header.stamp, d.state.stamp_ns)
-            cv.set_quaternion_from_mrp(self.msg_att.quaternion, d.state.sigma_bn)
-            cv.set_vector3(self.msg_rate.vector, d.state.omega_b)
-            if self.sensors is not None:
-                self.sensors.measure(d.state.k, d.state.stamp_ns, d.state.sigma_bn, d.state.omega_b)
-        if d.state is not None or d.resend:
-            self.pub_att.publish(self.msg_att)
-            self.pub_rate.publish(self.msg_rate)
-            if self.sensors is not None:
-                self.sensors.publish()
-            if self.stepper.lockstep:  # /clock exists in lockstep only
-                self.pub_clock.publish(self.msg_clock)
-        if d.applied is not None and d.applied_stamp_ns is not None:
-            cv.set_stamp(self.msg_applied.header.stamp, d.applied_stamp_ns)
-            cv.set_vector3(self.msg_applied.wrench.torque, d.applied)
-            self.pub_applied.publish(self.msg_applied)
+        self.out.publish(d)
         if d.action == Action.FINISH:
             self.finish(0)
         elif d.action == Action.FAIL:

@@ -200,6 +200,7 @@ PLANNER = NodeParameters(
         "actuators.*",
         "arrival.*",
         "sensors.*",
+        "fdir.*",
     ),
 )
 
@@ -215,7 +216,14 @@ CONTROLLER = NodeParameters(
         ),
         Param("fault.seed", ParamKind.INT, "test mode: seed of the drops", 0),
     ),
-    scenario=("scenario_name", "inertia_kgm2", "controller.*", "actuators.max_torque_nm"),
+    scenario=(
+        "scenario_name",
+        "dt_s",
+        "inertia_kgm2",
+        "controller.*",
+        "actuators.max_torque_nm",
+        "fdir.*",
+    ),
 )
 
 SIMULATOR = NodeParameters(
@@ -289,6 +297,8 @@ SIMULATOR = NodeParameters(
         "initial_rate_rad_s",
         "actuators.max_torque_nm",
         "sensors.*",
+        "fdir.*",
+        "link.*",
     ),
 )
 

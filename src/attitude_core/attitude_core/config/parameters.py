@@ -139,6 +139,7 @@ class ParamKind(StrEnum):
     UNIT3 = "unit3"  # normalised
     MRP = "mrp"  # mapped to the principal set
     MATRIX3 = "matrix3"  # 9 floats, row-major
+    FLOATS = "floats"  # a list of floats, any length (empty: none)
     DATA_FILE = "data_file"  # a packaged name or a path, resolved by the row's resolver
     PATH = "path"
 
@@ -156,6 +157,7 @@ ROS_TYPES: dict[ParamKind, str] = {
     ParamKind.UNIT3: "double_array",
     ParamKind.MRP: "double_array",
     ParamKind.MATRIX3: "double_array",
+    ParamKind.FLOATS: "double_array",
     ParamKind.DATA_FILE: "string",
     ParamKind.PATH: "string",
 }
@@ -301,6 +303,12 @@ def _floats(v: Any, n: int) -> np.ndarray:
     return np.array([_float(x, f"element {k}: ") for k, x in enumerate(v)])
 
 
+def _float_list(v: Any) -> tuple[float, ...]:
+    if not isinstance(v, list):
+        raise _Bad(f"expected a list of floats, got {type_name(v)} {v!r}")
+    return tuple(_float(x, f"element {k}: ") for k, x in enumerate(v))
+
+
 def _unit3(v: Any) -> np.ndarray:
     u = _floats(v, 3)
     norm = float(np.linalg.norm(u))
@@ -354,6 +362,7 @@ _CONVERTERS: dict[str, Callable[[Any, Path], Any]] = {
     "unit3": lambda v, _: _unit3(v),
     "mrp": lambda v, _: to_principal(_floats(v, 3)),
     "matrix3": lambda v, _: _floats(v, 9).reshape(3, 3),
+    "floats": lambda v, _: _float_list(v),
 }
 
 

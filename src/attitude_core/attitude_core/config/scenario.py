@@ -17,9 +17,11 @@ import numpy as np
 
 from attitude_core.config.parameters import ParameterError
 from attitude_core.fsw.estimation.knowledge import PERFECT, Knowledge, knowledge_of
+from attitude_core.fsw.fdir.fdir_config import FdirConfig
 from attitude_core.fsw.guidance.planner_config import PlannerConfig
 from attitude_core.models.constraints import ConeGeometry
 from attitude_core.models.ephemeris import Orbit, parse_epoch_utc
+from attitude_core.models.link_spec import LinkSpec
 from attitude_core.models.sensor_spec import SensorSpec
 from attitude_core.models.sky import Motion, Sky
 
@@ -156,6 +158,13 @@ class Scenario:
     epoch_utc: str | None = None  # ISO 8601 UTC of t = 0
     orbit: Orbit | None = None  # two-body orbit at the epoch, GCRS
     sensors: SensorSpec | None = None  # None: perfect knowledge (the true state is fed)
+    fdir: FdirConfig | None = None  # the state watchdog's limits (None: the defaults)
+    link: LinkSpec | None = None  # the rehearsal link (None: states go out as made)
+
+    @property
+    def watchdog(self) -> FdirConfig:
+        """The state watchdog's limits: ``fdir.*``, or the defaults for ``dt_s``."""
+        return FdirConfig.for_step(self.dt_s) if self.fdir is None else self.fdir
 
     @functools.cached_property
     def knowledge(self) -> Knowledge:

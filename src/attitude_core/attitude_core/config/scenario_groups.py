@@ -1,6 +1,6 @@
 """The scenario's named groups checked and built: instruments, bright objects, keep-in
-cones, the orbit and the sensors, and the sky they make (start and goal outside every
-keep-out, inside every keep-in)."""
+cones, the orbit, the sensors, the watchdog and the link, and the sky they make (start
+and goal outside every keep-out, inside every keep-in)."""
 
 import math
 from typing import Any
@@ -20,15 +20,20 @@ __all__ = [
     "parse_keep_in",
     "parse_orbit",
     "parse_sensors",
+    "parse_fdir",
+    "parse_link",
     "check_sky",
 ]
 from attitude_core.config.scenario_schema import (
     EXCLUSION_PARAMETER,
+    LINK_PARAMETERS,
     ORBIT_PARAMETERS,
     SENSOR_PARAMETERS,
     SENSOR_REQUIRED,
 )
+from attitude_core.fsw.fdir.fdir_config import DEFAULT_TIMEOUT_STEPS, FdirConfig
 from attitude_core.models.ephemeris import Orbit
+from attitude_core.models.link_spec import LinkSpec
 from attitude_core.models.sensor_spec import DEFAULT_BIAS_PRIOR_RAD_S, SensorSpec
 
 
@@ -163,6 +168,67 @@ def parse_sensors(values: dict[str, Any], source: str) -> SensorSpec | None:
     problem = spec.problem()
     if problem is not None:
         raise ScenarioError(source, "sensors", problem)
+    return spec
+
+
+def parse_fdir(values: dict[str, Any], source: str, dt_s: float) -> FdirConfig:
+    """The ``fdir.*`` limits: ``0 < state_timeout_s < predict_s < safe_after_s``."""
+    timeout = values["fdir.state_timeout_s"]
+    timeout = DEFAULT_TIMEOUT_STEPS * dt_s if timeout is None else float(timeout)
+    predict, safe = float(values["fdir.predict_s"]), float(values["fdir.safe_after_s"])
+    if not timeout < predict:
+        raise ScenarioError(
+            source,
+            "fdir.predict_s",
+            f"must be above fdir.state_timeout_s ({timeout:g} s), got {predict:g}",
+        )
+    if not predict < safe:
+        raise ScenarioError(
+            source,
+            "fdir.safe_after_s",
+            f"must be above fdir.predict_s ({predict:g} s), got {safe:g}",
+        )
+    return FdirConfig(timeout, predict, safe)
+
+
+def parse_link(
+    values: dict[str, Any], source: str, fdir: FdirConfig, sensors: SensorSpec | None
+) -> LinkSpec | None:
+    """The ``link.*`` keys: none (no link), or a link whose slowest state still comes
+    within the watchdog's timeout (a lockstep run paces its ticks by that rule)."""
+    keys = [p.key for p in LINK_PARAMETERS]
+    if all(values[k] is None for k in keys):
+        return None
+    if sensors is not None:
+        raise ScenarioError(
+            source,
+            "link",
+            "a rehearsal link with sensors.* is not supported: the link delays the "
+            "simulator's state, and with sensors the loop's state is the estimator's",
+        )
+
+    def get(key: str, default: Any) -> Any:
+        return default if values[key] is None else values[key]
+
+    raw = get("link.outages", ())
+    spec = LinkSpec(
+        state_latency_s=float(get("link.state_latency_s", 0.0)),
+        jitter_s=float(get("link.jitter_s", 0.0)),
+        drop_rate=float(get("link.drop_rate", 0.0)),
+        outages=tuple(zip(raw[0::2], raw[1::2], strict=True)),
+        seed=int(get("link.seed", 0)),
+    )
+    problem = spec.problem()
+    if problem is not None:
+        raise ScenarioError(source, "link", problem)
+    slowest = spec.state_latency_s + spec.jitter_s
+    if not slowest < fdir.state_timeout_s:
+        raise ScenarioError(
+            source,
+            "link.state_latency_s",
+            f"latency plus jitter ({slowest:g} s) must stay below fdir.state_timeout_s "
+            f"({fdir.state_timeout_s:g} s): every state would arrive stale",
+        )
     return spec
 
 

@@ -73,8 +73,10 @@ from attitude_core.config.scenario_flatten import (
 from attitude_core.config.scenario_groups import (
     check_sky,
     parse_bright_object,
+    parse_fdir,
     parse_instruments,
     parse_keep_in,
+    parse_link,
     parse_orbit,
     parse_sensors,
 )
@@ -177,6 +179,8 @@ def parse_scenario(
     planner = PlannerConfig(
         **{k.split(".", 1)[1]: v for k, v in values.items() if k.startswith("planner.")}
     )
+    sensors = parse_sensors(values, source)
+    fdir = parse_fdir(values, source, values["dt_s"])
     scenario = Scenario(
         name=values["scenario_name"],
         source=str(source),
@@ -204,7 +208,9 @@ def parse_scenario(
         ),
         epoch_utc=values["epoch_utc"],
         orbit=parse_orbit(values, source),
-        sensors=parse_sensors(values, source),
+        sensors=sensors,
+        fdir=fdir,
+        link=parse_link(values, source, fdir, sensors),
     )
     check_sky(scenario, source)
 

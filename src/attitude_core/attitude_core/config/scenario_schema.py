@@ -35,6 +35,8 @@ __all__ = [
     "ORBIT_PARAMETERS",
     "SENSOR_PARAMETERS",
     "SENSOR_REQUIRED",
+    "FDIR_PARAMETERS",
+    "LINK_PARAMETERS",
     "EXCLUSION_PARAMETER",
     "GROUPS",
     "OPTIONAL_GROUPS",
@@ -163,6 +165,79 @@ SENSOR_REQUIRED = (
     "sensors.star_tracker.rate_hz",
     "sensors.gyro.noise_rad_s",
 )
+
+
+def _outage_pairs(v: Any) -> str | None:
+    if len(v) % 2:
+        return f"must be start and duration pairs (an even count), got {len(v)} numbers"
+    for start, duration in zip(v[0::2], v[1::2], strict=True):
+        if start < 0.0 or duration <= 0.0:
+            return f"each pair is a start >= 0 and a duration > 0 (s), got [{start}, {duration}]"
+    return None
+
+
+FDIR_PARAMETERS = (
+    Param(
+        "fdir.state_timeout_s",
+        ParamKind.FLOAT,
+        "a measured state older than this (stack clock) is stale: the loop flies on the "
+        "predicted state, s (absent: 3 steps)",
+        None,
+        gt(0.0),
+    ),
+    Param(
+        "fdir.predict_s",
+        ParamKind.FLOAT,
+        "without a state for this long, brake the predicted rate to zero, then command "
+        "zero torque, s",
+        3.0,
+        gt(0.0),
+    ),
+    Param(
+        "fdir.safe_after_s",
+        ParamKind.FLOAT,
+        "without a state for this long: safe mode (zero torque; the run ends), s",
+        10.0,
+        gt(0.0),
+    ),
+)
+"""The state watchdog's limits (:class:`attitude_core.fsw.fdir.fdir_config.FdirConfig`)."""
+
+LINK_PARAMETERS = (
+    Param(
+        "link.state_latency_s",
+        ParamKind.FLOAT,
+        "rehearsal link: every state the simulator publishes arrives this late, s "
+        "(absent with every link.* key: no link, states published as they are made)",
+        None,
+        ge(0.0),
+    ),
+    Param(
+        "link.jitter_s",
+        ParamKind.FLOAT,
+        "rehearsal link: plus a uniform delay in [-jitter_s, +jitter_s], s",
+        None,
+        ge(0.0),
+    ),
+    Param(
+        "link.drop_rate",
+        ParamKind.FLOAT,
+        "rehearsal link: share of states lost",
+        None,
+        Bounds(0.0, 1.0, hi_open=True),
+    ),
+    Param(
+        "link.outages",
+        ParamKind.FLOATS,
+        "rehearsal link: states withheld over these windows, a flat list of start and "
+        "duration pairs, simulated s",
+        None,
+        check=_outage_pairs,
+    ),
+    Param("link.seed", ParamKind.INT, "rehearsal link: seed of the draws", None, ge(0)),
+)
+"""The ``link.*`` keys (:class:`attitude_core.models.link_spec.LinkSpec`): any one
+declares the link, the others default to none."""
 
 SCENARIO_PARAMETERS = (
     Param("scenario_name", ParamKind.NAME, "name used in outputs ([A-Za-z][A-Za-z0-9_]*)"),
@@ -352,6 +427,8 @@ SCENARIO_PARAMETERS = (
         gt(0.0),
     ),
     *SENSOR_PARAMETERS,
+    *FDIR_PARAMETERS,
+    *LINK_PARAMETERS,
 )
 """Top-level, controller, planner, arrival and sensor keys, in validation order."""
 

@@ -63,6 +63,11 @@ class PlannerStatus(enum.StrEnum):
     holds there: the target is held clear of it, and the slew goes on when the goal
     clears; the guidance's ``reason`` names the constraint and the window."""
 
+    SAFE_MODE = ("safe_mode", 5, DiagnosticLevel.ERROR, True)
+    """No measured state for ``fdir.safe_after_s``: the flight software commands zero
+    torque from then on and the run ends as a failure naming the lost state
+    (:mod:`attitude_core.fsw.fdir.state_watchdog`)."""
+
     @classmethod
     def parse(cls, text: str) -> PlannerStatus:
         """The status whose value is ``text`` (ValueError if none)."""

@@ -28,6 +28,7 @@ from attitude_core.assembly.guidance import guidance_from_scenario, prepare_guid
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.topics import NS_PER_S
 from attitude_core.fsw.control.pd import PdGains
+from attitude_core.loop.linked_loop import run_linked_loop
 from attitude_core.loop.loop_plant import loop_plant
 from attitude_core.loop.sensing import OnboardEstimation
 from attitude_core.record.trajectory import Estimates, RunResult
@@ -37,7 +38,10 @@ __all__ = ["run_closed_loop"]
 
 
 def run_closed_loop(scenario: Scenario) -> RunResult:
-    """Simulate the whole scenario (``sim_time_s``) and return the sampled trajectory."""
+    """Simulate the whole scenario (``sim_time_s``) and return the sampled trajectory;
+    behind a declared link, :func:`attitude_core.loop.linked_loop.run_linked_loop`."""
+    if scenario.link is not None:
+        return run_linked_loop(scenario)
     wall0 = time.perf_counter()
     n = scenario.n_steps
     dt = scenario.dt_s

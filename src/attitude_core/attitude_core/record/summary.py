@@ -73,6 +73,11 @@ class Summary:
     rate_estimation_error_rad_s: dict[str, float] | None
     filter_nees_mean: float | None
     filter_nees_in_95pct: float | None
+    # The faults of the run (:mod:`attitude_core.contract.faults`), in order of start, and
+    # the windows with no measured state on record ([from, to], s): the margin and the
+    # arrival are measured on the record's states only, never across such a window.
+    faults: list[dict[str, Any]]
+    unmeasured_windows_s: list[list[float]]
     sim_time_s: float
     dt_s: float
     wall_time_s: float
@@ -109,7 +114,7 @@ def summarize(run: RunResult) -> Summary:
     ``"keep_in/<name>"`` keep-in cones).
     """
     sc = run.scenario
-    min_margin, t_min = dense_min_margin_deg(sc.sky, run.t, run.sigma_bn, run.omega_b)
+    min_margin, t_min, unmeasured = _measured_min_margin(run)
     tol = sc.true_arrival  # the declared tolerances with perfect knowledge
     reached, t_reach, err_deg = arrival_time(
         run.t, run.sigma_bn, run.omega_b, sc.desired_mrp, tol.attitude_tol_deg, tol.rate_tol_rad_s
@@ -175,10 +180,30 @@ def summarize(run: RunResult) -> Summary:
         planner_step_us_median=_finite_stat(np.median, step_s) * 1e6,
         planner_step_us_p99=_finite_stat(lambda v: np.percentile(v, 99), step_s) * 1e6,
         **_estimation(run),
+        faults=[f.to_json() for f in run.faults],
+        unmeasured_windows_s=unmeasured,
         sim_time_s=sc.sim_time_s,
         dt_s=sc.dt_s,
         wall_time_s=run.wall_time_s,
     )
+
+
+def _measured_min_margin(run: RunResult) -> tuple[float, float, list[list[float]]]:
+    """The dense minimum margin over the record's spans with measured states, its time,
+    and the windows between them: two records further apart than the state watchdog's
+    timeout (``fdir.state_timeout_s``: a record of the loop's states across a link
+    outage) bound a window nobody measured, and no margin is claimed inside it."""
+    t = np.asarray(run.t, dtype=float)
+    timeout = run.scenario.watchdog.state_timeout_s
+    gaps = np.flatnonzero(np.diff(t) > timeout + 1e-9) if len(t) > 1 else np.zeros(0, int)
+    bounds = [0, *(gaps + 1).tolist(), len(t)]
+    best, t_best = math.inf, float(t[0]) if len(t) else math.nan
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        m, tm = dense_min_margin_deg(run.scenario.sky, t[a:b], run.sigma_bn[a:b], run.omega_b[a:b])
+        if m < best:
+            best, t_best = m, tm
+    windows = [[round(float(t[g]), 9), round(float(t[g + 1]), 9)] for g in gaps.tolist()]
+    return best, t_best, windows
 
 
 def _spread(x: np.ndarray) -> dict[str, float]:

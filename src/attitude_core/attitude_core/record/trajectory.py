@@ -8,11 +8,12 @@ turns it into the run's figures.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from attitude_core.config.scenario import Scenario
+from attitude_core.contract.faults import Fault
 
 __all__ = ["RunResult", "Estimates"]
 
@@ -37,6 +38,7 @@ class RunResult:
     # With declared sensors (None otherwise): sigma_bn and omega_b above are the TRUE
     # state; the loop was fed these estimates (NaN rows before the filter's first fix).
     estimate: Estimates | None = None
+    faults: list[Fault] = field(default_factory=list)  # in order of start
 
 
 @dataclass

@@ -15,6 +15,12 @@ lines to log.
   ``epoch_utc`` plus the stamps' time since then).
 * Inactive after its first target (a deactivated node): the last target is held at
   rest, a safe stop; nothing is stepped.
+* The state watchdog (:mod:`attitude_core.fsw.fdir.state_watchdog`, the controller's
+  rule): :meth:`PlannerStepper.tick` on the node's clock opens the faults of a lost
+  state (their ``/diagnostics``) and, after ``fdir.safe_after_s``, reports
+  ``safe_mode`` (latched: every later state gets the last target, held); a state that
+  comes back ends the fault and the guidance goes on from it
+  (:meth:`Guidance.resume`).
 * A new acceleration derating is logged; a new status is reported once.
 """
 
@@ -34,13 +40,15 @@ from attitude_core.assembly.guidance import (
 )
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.diagnostics import PlannerDiagnostics
+from attitude_core.contract.faults import Fault
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S
+from attitude_core.fsw.fdir.state_watchdog import FdirMode, StateWatchdog
 from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.fsw.guidance.guidance_base import Executor, GuidanceOutput
 from attitude_core.runtime.planner_report import planner_diagnostics
 
-__all__ = ["PlannerStep", "PlannerReport", "PlannerStepper"]
+__all__ = ["PlannerStep", "PlannerReport", "PlannerStepper", "PlannerTick"]
 
 Vector = npt.NDArray[np.float64]
 Logs = list[tuple[str, str]]
@@ -59,10 +67,21 @@ class PlannerStep:
     result: GuidanceOutput | None = None
     step_s: float = 0.0  # wall time of the guidance update, s
     logs: Logs = field(default_factory=list)
+    faults: list[Fault] = field(default_factory=list)  # the faults this state ended
 
     @property
     def held(self) -> bool:
         return self.result is None
+
+
+@dataclass(frozen=True)
+class PlannerTick:
+    """A tick of the node's clock: the watchdog's mode, the faults it opened, and
+    ``status`` when it changed (``safe_mode``)."""
+
+    mode: FdirMode
+    faults: list[Fault]
+    status: PlannerStatus | None
 
 
 @dataclass(frozen=True)
@@ -100,30 +119,60 @@ class PlannerStepper:
         self.status: PlannerStatus | None = None
         self.derating = 1.0
         self.sigma_t: Vector | None = None  # the last target
+        self.watchdog = StateWatchdog(scenario.watchdog)
 
     def takes_input(self, active: bool) -> bool:
         """Active, or deactivated after its first target: it then holds that target."""
         return active or self.guidance is not None
 
     def step(
-        self, stamp_ns: int, sigma_bn: Vector, omega_b: Vector, active: bool = True
+        self,
+        stamp_ns: int,
+        sigma_bn: Vector,
+        omega_b: Vector,
+        active: bool = True,
+        at_ns: int | None = None,
     ) -> PlannerStep:
-        """The target of the state stamped ``stamp_ns``; held when not ``active``."""
-        if not active:
+        """The target of the state stamped ``stamp_ns``; ``at_ns``: its time for the
+        watchdog (the stack's clock; default: its stamp); held when not ``active`` or in
+        safe mode."""
+        at = stamp_ns if at_ns is None else at_ns
+        ended = self.watchdog.measured(at, at) if active else []
+        if not active or self.watchdog.safe:
             held = sigma_bn if self.sigma_t is None else self.sigma_t
             t_s = (stamp_ns - self.first_stamp_ns) / NS_PER_S
-            return PlannerStep(stamp_ns, t_s, sigma_bn, held, np.zeros(3))
+            return PlannerStep(stamp_ns, t_s, sigma_bn, held, np.zeros(3), faults=ended)
         logs: Logs = []
+        t_s = (stamp_ns - self.first_stamp_ns) / NS_PER_S
         if self.guidance is None:
             self.guidance = self._start(stamp_ns, sigma_bn, logs)
+            t_s = 0.0
+        elif ended:  # states back after a gap: the guidance goes on from this one
+            self.guidance.resume(t_s, sigma_bn, omega_b)
+            logs += [("info", f"states back: {f.detail}") for f in ended]
         t0 = time.perf_counter()
-        t_s = (stamp_ns - self.first_stamp_ns) / NS_PER_S
         result = self.guidance.update(t_s, sigma_bn, omega_b)
         step_s = time.perf_counter() - t0
         self.last_stamp_ns = stamp_ns
         self.sigma_t = np.array(result.target.sigma_t, dtype=float)
         omega_t = np.array(result.target.omega_t, dtype=float)
-        return PlannerStep(stamp_ns, t_s, sigma_bn, self.sigma_t, omega_t, result, step_s, logs)
+        return PlannerStep(
+            stamp_ns, t_s, sigma_bn, self.sigma_t, omega_t, result, step_s, logs, ended
+        )
+
+    def rebase_watchdog(self) -> None:
+        """The stack's clock changed (the first ``/clock``): the watchdog starts again."""
+        origin = self.first_stamp_ns if self.guidance is not None else None
+        self.watchdog = StateWatchdog(self.scenario.watchdog, origin)
+
+    def tick(self, now_ns: int) -> PlannerTick:
+        """A tick of the node's clock at ``now_ns``: the faults of a stale state, and the
+        ``safe_mode`` status once (latched)."""
+        mode, opened = self.watchdog.check(now_ns)
+        status = None
+        if mode is FdirMode.SAFE_MODE and self.status is not PlannerStatus.SAFE_MODE:
+            self.status = status = PlannerStatus.SAFE_MODE
+        return PlannerTick(mode, opened, status)
 
     def report(self, step: PlannerStep, rejected: int) -> PlannerReport:
         """The report of a stepped (not held) ``step``; ``rejected``: messages refused."""

@@ -5,8 +5,9 @@ a status in ``stop_on``, or at the scenario's end (``sim_time_s`` after the firs
 stamp), whichever comes first; messages stamped after that point are not recorded. It
 closes once every stamped topic that has been seen has passed that point, so a plant
 that publishes no ``/clock`` or no applied torque still ends the recording; a topic
-that falls silent (a node that died) holds it open for at most ``grace_s`` of wall time
-after the state passed. It fails when no state arrives within ``plant_timeout_s``.
+that falls silent (a node that died, a state link that died) holds it open for at most
+``grace_s`` of wall time after the first topic passed. It fails when no state arrives
+within ``plant_timeout_s``.
 
 Time is given explicitly: stamps in integer nanoseconds, ``now`` in monotonic seconds.
 """
@@ -121,7 +122,7 @@ class StopRule:
         if self.stop_at_ns is None or stamp_ns <= self.stop_at_ns:
             return True
         self.passed.add(topic)
-        if topic == ATTITUDE and self.state_passed_at is None:
+        if self.state_passed_at is None:  # the run's time is past the stop
             self.state_passed_at = now
         return False
 

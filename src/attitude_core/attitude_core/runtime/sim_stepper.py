@@ -23,10 +23,25 @@ node must do; the node only converts messages and publishes what it is told.
   since it arrived) is stale: zero torque. A torque stamped before the one applied is
   refused.
 
+Behind a rehearsal link (``link.*``, :class:`attitude_core.world.link.StateLink`) the
+simulator publishes the true state of every step on ``/spacecraft/truth/*`` and gives the
+loop only what the link delivers (the newest state due, or none). In lockstep, at step
+``k``: a delivered state (stamp ``s``) is published and the body advances on the torque
+stamped ``s``, ``/clock`` ``k dt`` following that answer; without one, ``/clock`` ``k dt``
+is published and, once the newest delivered state is older than
+``fdir.state_timeout_s`` (the flight software's watchdog rule,
+:class:`attitude_core.fsw.fdir.fdir_config.FdirConfig`), the body advances on the torque
+stamped ``k dt`` (the stack's answer to that tick), else at once with the last torque
+held (:attr:`Decision.more`: step again), as a plant behind a bench link does. The
+answer a step waits for is therefore known in advance and the run is deterministic for
+``link.seed``. In real time the link is applied to the stamps on the node's clock.
+
 In both modes a torque is judged by the step it answers: its stamp must be one of the
 last :data:`ANSWERABLE_STATES` states this simulator published, so a torque stamped
 ahead (a stray message, a day in the future) is refused and counted and can never make
-the real answers look old. Torques that are non-finite or beyond the plausible bound
+the real answers look old (in real time, a stamp within the span of those states, or
+at most one step after the last: a watchdog's answer to a tick of its clock). Torques
+that are non-finite or beyond the plausible bound
 (:func:`attitude_core.runtime.plausibility.torque_bound_nm`: ``actuators.max_torque_nm`` when
 set) are refused, never integrated; should the state still become non-finite, the
 simulator stops (exit 1) rather than publish it. The run ends (exit code 0) after
@@ -47,12 +62,15 @@ import numpy.typing as npt
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.time_mode import TimeMode
 from attitude_core.contract.topics import BODY_FRAME, NS_PER_S
+from attitude_core.fsw.fdir.fdir_config import FdirConfig
+from attitude_core.models.link_spec import LinkSpec
 from attitude_core.runtime.plausibility import (
     DEFAULT_MAX_TORQUE_NM,
     implausible_torque,
     torque_bound_nm,
 )
 from attitude_core.world.actuator import clip_to_bound
+from attitude_core.world.link import StateLink
 from attitude_core.world.rigid_body import RigidBody
 
 if TYPE_CHECKING:
@@ -99,6 +117,7 @@ class Action(enum.Enum):
     HOLD = "hold"  # lockstep timeout: advanced with the last torque held
     ZERO = "zero"  # stale torque: advanced with zero torque
     FINISH = "finish"  # the scenario time has ended; ``exit_code`` 0
+    LINK_HOLD = "link_hold"  # lockstep behind a link: no state due, none stale: held torque
 
 
 @dataclass(frozen=True)
@@ -116,6 +135,8 @@ class StepperConfig:
     startup_timeout_s: float = 60.0
     max_torque_nm: tuple[float, float, float] | None = None  # the plant's bound, per axis
     plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3
+    link: LinkSpec | None = None  # the rehearsal link (None: the state goes out as made)
+    fdir: FdirConfig | None = None  # the stack's watchdog rule (lockstep behind a link)
 
     def __post_init__(self) -> None:
         if self.time_mode not in tuple(TimeMode):
@@ -131,9 +152,13 @@ class StepperConfig:
         n_steps: int,
         max_torque_nm: tuple[float, float, float] | None = None,
         plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3,
+        link: LinkSpec | None = None,
+        fdir: FdirConfig | None = None,
     ) -> StepperConfig:
         """From the simulator node's parameters."""
         return cls(
+            link=link,
+            fdir=fdir,
             max_torque_nm=max_torque_nm,
             plausible_torque_nm=plausible_torque_nm,
             dt_s=dt_s,
@@ -164,7 +189,13 @@ class StateOut:
 class Decision:
     """The outcome of one call. ``applied``: publish this torque, stamped with the
     previous state, as applied over the step just taken. ``state``: publish this state
-    (``resend``: the current one again). ``logs``: (level, text) pairs to log."""
+    (``resend``: the current one again). ``logs``: (level, text) pairs to log.
+
+    Behind a link: ``clocks``, the ``/clock`` stamps to publish first, in order;
+    ``truth``, the true state to publish on ``/spacecraft/truth/*``; ``state``, the
+    state the link delivered (None: none); ``resend_state`` False when a re-send is of
+    ``/clock`` alone (a tick awaiting its answer); ``more``: step again at once
+    (:meth:`SimStepper.step_on`)."""
 
     action: Action
     applied: Vector | None = None
@@ -173,6 +204,10 @@ class Decision:
     exit_code: int | None = None
     reason: str | None = None
     logs: list[tuple[str, str]] = field(default_factory=list)
+    clocks: list[int] = field(default_factory=list)
+    truth: StateOut | None = None
+    resend_state: bool = True
+    more: bool = False
 
     @property
     def resend(self) -> bool:
@@ -205,6 +240,13 @@ class SimStepper:
         self.created = created
         self.ready_since: float | None = None
         self.started_at: float | None = None
+        self.link: StateLink[tuple[int, Vector, Vector]] | None = (
+            None if config.link is None else StateLink(config.link)
+        )
+        self.fdir = config.fdir if config.fdir is not None else FdirConfig.for_step(config.dt_s)
+        self.delivered_ns: int | None = None  # stamp of the newest state the link delivered
+        self.pending_clock_ns: int | None = None  # lockstep link: /clock after the answer
+        self.tick_wait = False  # lockstep link: the awaited torque answers a tick
 
     @classmethod
     def from_scenario(
@@ -219,7 +261,13 @@ class SimStepper:
             float(declared[2]) * weaker,
         )  # fmt: skip
         config = StepperConfig.from_parameters(
-            parameters, scenario.dt_s, scenario.n_steps, plant, torque_bound_nm(scenario)
+            parameters,
+            scenario.dt_s,
+            scenario.n_steps,
+            plant,
+            torque_bound_nm(scenario),
+            scenario.link,
+            None if scenario.link is None else scenario.watchdog,
         )
         body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
         return cls(config, body, created)
@@ -251,7 +299,9 @@ class SimStepper:
             return Decision(Action.WAIT)
         self.started_at = now
         decision = Decision(Action.START, logs=[("info", "graph connected; starting")])
-        if self.lockstep:
+        if self.lockstep and self.link is not None:
+            self._linked_step(now, decision)
+        elif self.lockstep:
             decision.state = self._state(now, self.k * self.dt_ns)
         return decision
 
@@ -277,7 +327,7 @@ class SimStepper:
             return self._reject(reason)
         if self.done or self.started_at is None:
             return Decision(Action.IGNORE)
-        if stamp_ns not in self.published:  # the step it answers decides, not its stamp
+        if not self._answerable(stamp_ns):  # the step it answers decides, not its stamp
             return self._reject(
                 f"stamp {stamp_ns} ns answers no state this simulator published "
                 f"(the last is {self.state_stamp} ns)"
@@ -338,13 +388,23 @@ class SimStepper:
         if now - self.sent_at > period:
             self.resends += 1
             self.sent_at = now
+            if self.tick_wait:  # the tick's /clock again: there is no state to re-send
+                return Decision(Action.RESEND, clocks=[self.waiting_stamp], resend_state=False)
             return Decision(Action.RESEND)
         return Decision(Action.NONE)
+
+    def step_on(self, now: float) -> Decision:
+        """Lockstep behind a link, after a decision with ``more``: the next step, the
+        last torque held (no state was due and none is stale)."""
+        if self.done or self.waiting_stamp is not None or self.link is None:
+            return Decision(Action.NONE)
+        return self._advance(now, self.torque, Action.LINK_HOLD)
 
     def _advance(self, now: float, torque: Vector, action: Action) -> Decision:
         """The torque for step k is known: integrate to k + 1 and publish that state."""
         self.torque = torque
         self.waiting_stamp = None
+        self.tick_wait = False
         applied, applied_stamp = self._bounded(torque), self.state_stamp
         if self.k >= self.cfg.n_steps:
             decision = self._end(now, applied)
@@ -354,6 +414,10 @@ class SimStepper:
         if not self._finite_state():
             return self._diverged()
         self.k += 1
+        if self.link is not None:
+            decision = Decision(action, applied=applied, applied_stamp_ns=applied_stamp)
+            self._linked_step(now, decision)
+            return decision
         return Decision(
             action,
             applied=applied,
@@ -383,11 +447,76 @@ class SimStepper:
             self.body.step(applied, self.cfg.dt_s)
             if not self._finite_state():
                 return self._diverged()
+        if self.link is not None:
+            decision = Decision(action, applied=applied, applied_stamp_ns=applied_stamp, logs=logs)
+            self._linked_realtime(now, clock_ns, decision)
+            self.k += 1
+            return decision
         state = self._state(now, clock_ns)
         self.k += 1
         return Decision(
             action, applied=applied, applied_stamp_ns=applied_stamp, state=state, logs=logs
         )
+
+    # -- behind a link ----------------------------------------------------------------
+
+    def _linked_step(self, now: float, decision: Decision) -> None:
+        """Lockstep: the body is at step ``k``: what the link delivers, what to await."""
+        if self.pending_clock_ns is not None:  # the previous step's tick, after its answer
+            decision.clocks.append(self.pending_clock_ns)
+            self.pending_clock_ns = None
+        assert self.link is not None
+        stamp = self.k * self.dt_ns
+        decision.truth = self._truth(stamp)
+        self.link.send(stamp, (self.k, self.body.sigma_bn.copy(), self.body.omega_b.copy()))
+        got = self.link.receive(stamp)
+        self.sent_at = self.first_sent_at = now
+        if got is not None:
+            s, (k, sigma, omega) = got
+            self.delivered_ns = s
+            self._answerable_add(s)
+            self.waiting_stamp, self.pending_clock_ns = s, stamp
+            decision.state = StateOut(k, s, None, sigma, omega)
+            return
+        decision.clocks.append(stamp)
+        if self.delivered_ns is not None and self.fdir.stale(stamp - self.delivered_ns):
+            self._answerable_add(stamp)  # the stack answers this tick
+            self.waiting_stamp, self.tick_wait = stamp, True
+            return
+        decision.more = not self.done
+
+    def _linked_realtime(self, now: float, clock_ns: int, decision: Decision) -> None:
+        """Real time: the step's true state, and what the link delivers by now."""
+        assert self.link is not None
+        decision.truth = self._truth(clock_ns)
+        self.link.send(clock_ns, (self.k, self.body.sigma_bn.copy(), self.body.omega_b.copy()))
+        got = self.link.receive(clock_ns)
+        if got is not None:
+            s, (k, sigma, omega) = got
+            self.delivered_ns = s
+            decision.state = StateOut(k, s, None, sigma, omega)
+
+    def _truth(self, stamp_ns: int) -> StateOut:
+        """The true state of step ``k``, stamped ``stamp_ns`` (behind a link)."""
+        self.state_stamp = stamp_ns
+        self._answerable_add(stamp_ns)
+        clock = stamp_ns if self.lockstep else None
+        return StateOut(
+            self.k, stamp_ns, clock, self.body.sigma_bn.copy(), self.body.omega_b.copy()
+        )
+
+    def _answerable_add(self, stamp_ns: int) -> None:
+        if not self.published or self.published[-1] < stamp_ns:
+            self.published.append(stamp_ns)
+
+    def _answerable(self, stamp_ns: int) -> bool:
+        """A torque stamped ``stamp_ns`` answers a state this simulator published (in
+        real time: within their span, or one step after the last: a tick's answer)."""
+        if stamp_ns in self.published:
+            return True
+        if self.lockstep or not self.published:
+            return False
+        return self.published[0] <= stamp_ns <= self.published[-1] + self.dt_ns
 
     # -- shared ---------------------------------------------------------------------
 

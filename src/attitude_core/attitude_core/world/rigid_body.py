@@ -14,19 +14,11 @@ import numpy as np
 import numpy.typing as npt
 
 from attitude_core import kernels
-from attitude_core.models.mrp import Vec3, Vec3Like, cross3, mrp_rate, mrp_rate_single, to_principal
+from attitude_core.models.mrp import Vec3, Vec3Like, mrp_rate_single, to_principal
 
-__all__ = ["RigidBody", "state_derivative"]
+__all__ = ["RigidBody"]
 
 _Floats = npt.NDArray[np.float64]
-
-
-def state_derivative(
-    inertia: _Floats, inertia_inv: _Floats, sigma: _Floats, omega: _Floats, torque: _Floats
-) -> tuple[_Floats, _Floats]:
-    """``(sigma_dot, omega_dot)`` with ``J omega_dot = -omega x J omega + u`` (eq. 4)."""
-    omega_dot = inertia_inv @ (torque - cross3(omega, inertia @ omega))
-    return mrp_rate(sigma, omega), omega_dot
 
 
 class RigidBody:
@@ -61,7 +53,7 @@ class RigidBody:
         """:meth:`step` in Python: advance by ``dt`` seconds with ``torque_b`` held (RK4).
 
         Written in plain floats (one body per call is the hot path of every run);
-        :func:`state_derivative` is the array form of the same equations.
+        :func:`attitude_core.models.body_dynamics.rk4_step` is the array form of the same equations.
         """
         j = self._j_rows
         ji = self._ji_rows

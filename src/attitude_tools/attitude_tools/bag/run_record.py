@@ -20,7 +20,13 @@ A run with sensors is rebuilt from the truth: when the bag holds
 on), and ``/spacecraft/attitude`` and ``/spacecraft/angular_velocity`` (what the loop
 was fed) become :attr:`RunResult.estimate`, with the estimator's 3-sigma from its
 ``/diagnostics`` (status ``mekf_estimator``); the NEES needs the true bias, which the
-bag does not hold (NaN).
+bag does not hold (NaN). A run behind a rehearsal link (``link.*``, no sensors) is
+rebuilt from the truth the same way, with no estimate: the states the link delivered
+are what the loop was fed.
+
+``RunResult.faults`` is the state watchdog replayed on the stamps of the states the
+loop was fed (:func:`attitude_core.fsw.fdir.state_watchdog.faults_from_stamps`), up to the
+last step: what the record shows, whatever the nodes logged.
 """
 
 from __future__ import annotations
@@ -53,6 +59,7 @@ from attitude_core.contract.topics import (
     TRUTH_ATTITUDE,
     stamp_ns,
 )
+from attitude_core.fsw.fdir.state_watchdog import faults_from_stamps
 from attitude_core.models.mrp import mrp_from_quat
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import Estimates, RunResult
@@ -188,7 +195,14 @@ def run_from_bag(
         planner_reason=reason,
         route_rotation_deg=route_deg,
     )
-    if sensing:
+    fed = sorted(estimated[ATTITUDE]) if sensing else list(states[:n])
+    run.faults = faults_from_stamps(
+        scenario.watchdog,
+        [s for s in fed if stamps[0] <= s <= stamps[-1]],
+        int(stamps[-1]),
+        int(stamps[0]),
+    )
+    if sensing and scenario.sensors is not None:
         est_quat = np.array(
             [
                 _quat(estimated[ATTITUDE][s]) if s in estimated[ATTITUDE] else (np.nan,) * 4

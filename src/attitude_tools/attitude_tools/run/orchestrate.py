@@ -30,6 +30,7 @@ from attitude_core.config import node_graph as graph
 from attitude_core.config.node_graph import NodeSpec
 from attitude_core.config.scenario import Scenario, ScenarioError
 from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.contract.faults import FaultKind
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, IMU, STAR_TRACKER
 from attitude_core.runtime import run_identity
@@ -578,6 +579,13 @@ def summarize_run(
         codes_seen = set(bag_run.run.planner_status.tolist())
         ended = any(s.code in codes_seen for s in PlannerStatus.ending())
         end.end_reason = "planner finished" if ended else "scenario time ended"
+    safe = next((f for f in bag_run.run.faults if f.kind is FaultKind.SAFE_MODE), None)
+    if safe is not None:  # the state was lost for good: a failure naming it
+        end.end_reason = "safe mode"
+        end.failure = end.failure or (
+            f"safe mode at {safe.t_start_s:.3f} s: the measured state ({ATTITUDE}, "
+            f"{ANGULAR_VELOCITY}) was lost: {safe.detail}"
+        )
     summary = summarize_bag(bag_run)
     summary.update(_run_summary_fields(req, staged, end))
     summary.update(run_fields(end.recovery, str(bag), bag_run.run.t))

@@ -110,6 +110,7 @@ from attitude_core.models.mrp import (
     angle_between_single,
     mrp_rate_single,
     omega_from_mrp_rate_single,
+    to_principal,
 )
 
 __all__ = ["Guidance"]
@@ -221,6 +222,30 @@ class Guidance(RouteUpdates, TimeScaling, SkyWatch, ArrivalJudge):
                 self.reason = first.reason
                 self.status = PlannerStatus.INFEASIBLE
                 planner.hold(PlannerStatus.INFEASIBLE)  # the target holds the start
+
+    def resume(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> None:
+        """Go on from the measured state after a gap in the states (the state watchdog,
+        :mod:`attitude_core.fsw.fdir.state_watchdog`), before :meth:`update` of the state
+        at ``t_s``: the target does not fly the gap (the controller flew the body on its
+        prediction meanwhile); while tracking, it restarts at the measured attitude with
+        the measured rate as the profile's previous rate, so the profile continues from
+        what the body does; the lag the gap made is no sign of a weak plant (no
+        derating) nor of a stall (the progress timers restart)."""
+        nominal = self.planner.dt
+        if self.t_prev is not None and float(t_s) - nominal > self.t_prev:
+            self.t_prev = float(t_s) - nominal
+        self._behind_since = None
+        self._since_progress = 0.0
+        self._best_body = math.inf
+        self._best_target = math.inf
+        self._recent.clear()
+        if self.status != PlannerStatus.TRACKING or self.planner.status != PlannerStatus.TRACKING:
+            return
+        sigma = to_principal(np.asarray(sigma_bn, dtype=float))
+        self.planner.reset(sigma)
+        self.omega_prev = np.array(omega_b, dtype=float)
+        if self.follower is not None:
+            self.follower.aim_in_sight()
 
     def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
         """The target for the measured state at time ``t_s`` (s, non-decreasing).
