@@ -25,6 +25,7 @@ class SensorOut:
 
     def __init__(self, node: Any, scenario: Scenario, spec: SensorSpec) -> None:
         self.dt_s = scenario.dt_s
+        self.scenario = scenario
         self.suite = SensorSuite(spec, scenario.dt_s)
         self.pub_imu, self.pub_tracker = publisher(node, c.IMU), publisher(node, c.STAR_TRACKER)
         self.msg_imu, self.msg_tracker = message(c.IMU), message(c.STAR_TRACKER)
@@ -39,7 +40,9 @@ class SensorOut:
 
     def measure(self, k: int, stamp_ns: int, sigma_bn: Any, omega_b: Any) -> None:
         """Draw the measurements of state ``k`` (simulated time ``k dt``), once."""
-        m = self.suite.measure(k * self.dt_s, sigma_bn, omega_b)
+        t_s = k * self.dt_s
+        blind = self.scenario.tracker_blinded(t_s, sigma_bn)  # the tracker's own keep-out
+        m = self.suite.measure(t_s, sigma_bn, omega_b, blind)
         self.measured = m
         cv.set_stamp(self.msg_imu.header.stamp, stamp_ns)
         cv.set_vector3(self.msg_imu.angular_velocity, m.gyro_rad_s)

@@ -55,14 +55,15 @@ def buffer_deg(scenario: Scenario, sigma_0: Vec3Like) -> float:
     of the start's (``sigma_0``) or the goal's margin when either lies closer to a cone
     (on a moving sky, the start's at ``t = 0`` only: the goal's clearance is watched over
     time, :mod:`attitude_core.fsw.guidance.goal_watch`). With declared sensors the knowledge
-    3-sigma (:attr:`Scenario.knowledge`) is added to ``safety_margin_deg``: the true
-    boresight may be that far from the estimated one."""
+    3-sigma (:attr:`Scenario.knowledge`, through the longest declared tracker outage) is
+    added to ``safety_margin_deg``: the true boresight may be that far from the
+    estimated one."""
     exact = scenario.exact_geometry()  # margins only: no fine rim sampling needed
     ends = [np.asarray(sigma_0, dtype=float)]
     if scenario.sky.static:
         ends.append(scenario.desired_mrp)
     end_margin = min(float(exact.min_margin_deg(end)) for end in ends)
-    wanted = scenario.planner.safety_margin_deg + scenario.knowledge.attitude_3sigma_deg
+    wanted = scenario.planner.safety_margin_deg + scenario.knowledge.buffer_3sigma_deg
     return min(wanted, 0.5 * max(end_margin, 0.0))
 
 
@@ -104,7 +105,7 @@ def scenario_eta_s(scenario: Scenario, sigma_0: Vec3Like) -> float:
     rotation = 1.5 * angle_between_single(sigma_0, scenario.desired_mrp)
     act = scenario.actuators
     lim = GuidanceLimits.from_actuators(
-        scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+        scenario.inertia_kgm2, act.max_torque_nm, scenario.guidance_max_rate_rad_s
     )
     bound = time_bound_s(rotation, lim.max_rate_rad_s, lim.alpha_max_rad_s2)
     return nominal_eta_s(rotation, scenario.planner.max_attractive_rate_mrp_s, bound)
@@ -143,7 +144,9 @@ def guidance_from_scenario(
         initial_route = sky_guide.plan_route(0.0, eta, planner.sigma_t, planner.goal)
     return Guidance(
         planner,
-        GuidanceLimits.from_actuators(scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s),
+        GuidanceLimits.from_actuators(
+            scenario.inertia_kgm2, act.max_torque_nm, scenario.guidance_max_rate_rad_s
+        ),
         scenario.guidance_arrival.attitude_tol_deg,
         scenario.guidance_arrival.rate_tol_rad_s,
         routes,

@@ -137,6 +137,11 @@ def _stack(rows: Sequence[np.ndarray], width: int = 3) -> np.ndarray:
     return frozen_array(np.array(rows) if rows else np.zeros((0, width)))
 
 
+TRACKER_RATE_USE = 0.8
+"""Share of the star tracker's rate limit the guidance lets the body reach (the rest is
+the body's overshoot of its target)."""
+
+
 @dataclass(frozen=True, eq=False)  # eq=False: ndarray fields have no truth value
 class Scenario:
     name: str
@@ -171,6 +176,30 @@ class Scenario:
         """How well the loop knows the state: the estimator's steady 3-sigma from the
         declared sensors (:mod:`attitude_core.fsw.estimation.knowledge`; perfect without them)."""
         return PERFECT if self.sensors is None else knowledge_of(self.sensors, self.dt_s)
+
+    @property
+    def guidance_max_rate_rad_s(self) -> float | None:
+        """The body-rate bound the guidance keeps: ``actuators.max_rate_rad_s`` and
+        :data:`TRACKER_RATE_USE` of the star tracker's rate limit, the smaller (None:
+        neither)."""
+        bounds = [self.actuators.max_rate_rad_s]
+        if self.sensors is not None and self.sensors.star_tracker_max_rate_rad_s is not None:
+            bounds.append(TRACKER_RATE_USE * self.sensors.star_tracker_max_rate_rad_s)
+        given = [b for b in bounds if b is not None]
+        return min(given) if given else None
+
+    def tracker_blinded(self, t_s: float, sigma_bn: np.ndarray) -> bool:
+        """A bright object is inside the exclusion of the instrument that is the star
+        tracker (``sensors.star_tracker.instrument``) at ``t_s`` (False without one)."""
+        name = None if self.sensors is None else self.sensors.star_tracker_instrument
+        if name is None:
+            return False
+        i = self.instrument_names.index(name)
+        pairs = self.sky.pair_instrument == i
+        if not pairs.any():
+            return False
+        margins = self.sky.constraint_margins_deg(t_s, sigma_bn)[: len(pairs)]
+        return bool(np.min(margins[pairs]) < 0.0)
 
     @property
     def guidance_arrival(self) -> ArrivalConfig:

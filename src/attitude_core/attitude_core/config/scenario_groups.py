@@ -154,6 +154,8 @@ def parse_sensors(values: dict[str, Any], source: str) -> SensorSpec | None:
     bias = values["sensors.gyro.bias_rad_s"]
     walk = values["sensors.gyro.bias_walk_rad_s2"]
     prior = values["sensors.gyro.bias_prior_rad_s"]
+    outages = values["sensors.star_tracker.outages"] or ()
+    max_rate = values["sensors.star_tracker.max_rate_deg_s"]
     spec = SensorSpec(
         seed=int(values["sensors.seed"]),
         star_tracker_noise_rad=tuple(  # type: ignore[arg-type]
@@ -164,6 +166,12 @@ def parse_sensors(values: dict[str, Any], source: str) -> SensorSpec | None:
         gyro_bias_rad_s=(0.0, 0.0, 0.0) if bias is None else tuple(float(x) for x in bias),  # type: ignore[arg-type]
         gyro_bias_walk_rad_s2=0.0 if walk is None else float(walk),
         gyro_bias_prior_rad_s=DEFAULT_BIAS_PRIOR_RAD_S if prior is None else float(prior),
+        star_tracker_outages_s=tuple(
+            (float(a), float(a) + float(d))
+            for a, d in zip(outages[0::2], outages[1::2], strict=True)
+        ),
+        star_tracker_max_rate_rad_s=None if max_rate is None else math.radians(float(max_rate)),
+        star_tracker_instrument=values["sensors.star_tracker.instrument"],
     )
     problem = spec.problem()
     if problem is not None:
@@ -233,7 +241,15 @@ def parse_link(
 
 
 def check_sky(scenario: Scenario, source: str) -> None:
-    """Ephemeris bodies need the epoch, ``earth`` the orbit too."""
+    """Ephemeris bodies need the epoch, ``earth`` the orbit too; the star tracker's
+    instrument is a listed one."""
+    tracker = None if scenario.sensors is None else scenario.sensors.star_tracker_instrument
+    if tracker is not None and tracker not in scenario.instrument_names:
+        raise ScenarioError(
+            source,
+            "sensors.star_tracker.instrument",
+            f"{tracker!r} is not a listed instrument {list(scenario.instrument_names)}",
+        )
     for group, members in (
         ("bright_objects", scenario.bright_objects),
         ("keep_in", scenario.keep_in),

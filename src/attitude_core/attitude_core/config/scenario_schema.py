@@ -76,6 +76,15 @@ def _positive_vector(v: Any) -> str | None:
     return None
 
 
+def _outage_pairs(v: Any) -> str | None:
+    if len(v) % 2:
+        return f"must be start and duration pairs (an even count), got {len(v)} numbers"
+    for start, duration in zip(v[0::2], v[1::2], strict=True):
+        if start < 0.0 or duration <= 0.0:
+            return f"each pair is a start >= 0 and a duration > 0 (s), got [{start}, {duration}]"
+    return None
+
+
 ORBIT_PARAMETERS = (
     Param(
         "orbit.semi_major_axis_km",
@@ -128,6 +137,29 @@ SENSOR_PARAMETERS = (
         gt(0.0),
     ),
     Param(
+        "sensors.star_tracker.max_rate_deg_s",
+        ParamKind.FLOAT,
+        "no star tracker solution while the body turns faster than this, deg/s (absent: "
+        "any rate); the guidance keeps the body's rate under 0.8 of it",
+        None,
+        gt(0.0),
+    ),
+    Param(
+        "sensors.star_tracker.outages",
+        ParamKind.FLOATS,
+        "star tracker outages: a flat list of start and duration pairs, s (the keep-out "
+        "buffer covers the attitude 3-sigma at the end of the longest)",
+        None,
+        check=_outage_pairs,
+    ),
+    Param(
+        "sensors.star_tracker.instrument",
+        ParamKind.NAME,
+        "the instrument that is the star tracker: no solution while a bright object is "
+        "inside its exclusion (absent: never blinded)",
+        None,
+    ),
+    Param(
         "sensors.gyro.noise_rad_s",
         ParamKind.FLOAT,
         "gyro white noise, 1-sigma per sample (one per dt_s) and axis, rad/s",
@@ -165,15 +197,6 @@ SENSOR_REQUIRED = (
     "sensors.star_tracker.rate_hz",
     "sensors.gyro.noise_rad_s",
 )
-
-
-def _outage_pairs(v: Any) -> str | None:
-    if len(v) % 2:
-        return f"must be start and duration pairs (an even count), got {len(v)} numbers"
-    for start, duration in zip(v[0::2], v[1::2], strict=True):
-        if start < 0.0 or duration <= 0.0:
-            return f"each pair is a start >= 0 and a duration > 0 (s), got [{start}, {duration}]"
-    return None
 
 
 FDIR_PARAMETERS = (

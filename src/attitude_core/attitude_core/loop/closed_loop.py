@@ -28,6 +28,7 @@ from attitude_core.assembly.guidance import guidance_from_scenario, prepare_guid
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.topics import NS_PER_S
 from attitude_core.fsw.control.pd import PdGains
+from attitude_core.fsw.fdir.tracker_watch import tracker_outages
 from attitude_core.loop.linked_loop import run_linked_loop
 from attitude_core.loop.loop_plant import loop_plant
 from attitude_core.loop.sensing import OnboardEstimation
@@ -70,7 +71,10 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     d_obs = np.empty(n + 1)
     status = np.empty(n + 1, dtype=np.int8)
     step_s = np.empty(n + 1)
-    onboard = None if scenario.sensors is None else OnboardEstimation(scenario.sensors, dt, n + 1)
+    onboard = None
+    if scenario.sensors is not None:
+        blinded = scenario.tracker_blinded if scenario.sensors.star_tracker_instrument else None
+        onboard = OnboardEstimation(scenario.sensors, dt, n + 1, blinded)
     clock = time.perf_counter
     k = 0
     while k <= n:
@@ -128,4 +132,7 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         else Estimates(
             onboard.sigma_bn, onboard.omega_b, onboard.attitude_3sigma_deg, onboard.nees
         ),
+        faults=[]
+        if onboard is None or scenario.sensors is None
+        else tracker_outages(onboard.tracker_times, scenario.sensors.star_tracker_rate_hz, n * dt),
     )

@@ -10,6 +10,8 @@ the simulator's measurements.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 import numpy.typing as npt
 
@@ -25,8 +27,16 @@ _Floats = npt.NDArray[np.float64]
 class OnboardEstimation:
     """Sensors and filter over ``n_rows`` steps of ``dt_s`` (see module docstring)."""
 
-    def __init__(self, spec: SensorSpec, dt_s: float, n_rows: int) -> None:
+    def __init__(
+        self,
+        spec: SensorSpec,
+        dt_s: float,
+        n_rows: int,
+        blinded: Callable[[float, _Floats], bool] | None = None,
+    ) -> None:
         self.sensors = SensorSuite(spec, dt_s)
+        self.blinded = blinded  # the tracker's own keep-out, judged on the sky
+        self.tracker_times: list[float] = []  # the star tracker samples taken
         self.filter = Mekf(MekfConfig.from_spec(spec, dt_s))
         nan3 = np.full((n_rows, 3), np.nan)
         self.sigma_bn: _Floats = nan3.copy()
@@ -38,7 +48,10 @@ class OnboardEstimation:
         """Measure the true state of row ``k`` at ``t_s`` and filter it; None until the
         filter has its first star tracker fix."""
         bias = self.sensors.bias_rad_s.copy()  # the bias of this sample
-        m = self.sensors.measure(t_s, sigma_bn, omega_b)
+        blind = self.blinded is not None and self.blinded(t_s, sigma_bn)
+        m = self.sensors.measure(t_s, sigma_bn, omega_b, blind)
+        if m.star_tracker_quat is not None:
+            self.tracker_times.append(t_s)
         est = self.filter.step(t_s, m.gyro_rad_s, m.star_tracker_quat)
         if est is not None:
             self.sigma_bn[k] = est.sigma_bn

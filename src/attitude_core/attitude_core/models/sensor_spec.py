@@ -7,7 +7,8 @@ their buffers from it. SI units, body axes.
 
 The tracker runs on its own clock: a sample is taken at the first step of each
 ``1 / star_tracker_rate_hz`` period (:func:`star_tracker_due`), unless that step falls in
-an outage window; a period whose first step is in an outage has no sample.
+an outage window, the body turns faster than the tracker's limit, or a bright object is
+inside the tracker's own exclusion; such a period has no sample.
 """
 
 from __future__ import annotations
@@ -82,6 +83,12 @@ class SensorSpec:
     """The estimator's 1-sigma on the initial bias (it does not know the true one)."""
     star_tracker_outages_s: tuple[tuple[float, float], ...] = ()
     """``[start, end)`` windows of simulated time, s, with no star tracker sample."""
+    star_tracker_max_rate_rad_s: float | None = None
+    """No star tracker solution while the body turns faster than this, rad/s (None: any
+    rate)."""
+    star_tracker_instrument: str | None = None
+    """No star tracker solution while a bright object is inside this instrument's
+    exclusion (the tracker's own keep-out; None: the tracker is never blinded)."""
 
     def problem(self) -> str | None:
         """None for a usable spec, else a message naming the field and the reason."""
@@ -99,6 +106,9 @@ class SensorSpec:
         for message in checks:
             if message is not None:
                 return message
+        limit = self.star_tracker_max_rate_rad_s
+        if limit is not None and (not _is_real(limit) or not limit > 0.0):
+            return f"star_tracker_max_rate_rad_s: must be > 0, got {limit!r}"
         outages = self.star_tracker_outages_s
         if not isinstance(outages, tuple | list):
             return f"star_tracker_outages_s: must be a list of [start, end] pairs, got {outages!r}"

@@ -69,9 +69,13 @@ class SensorSuite:
         :meth:`measure` for the bias of that sample; the initial bias before the first)."""
         return self._bias.copy()
 
-    def measure(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> Measurement:
+    def measure(
+        self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like, blinded: bool = False
+    ) -> Measurement:
         """This step's gyro sample and, at a new tracker period, star tracker sample, from
-        the TRUE ``sigma_bn`` and ``omega_b``. ``t_s`` must increase from call to call."""
+        the TRUE ``sigma_bn`` and ``omega_b``. ``t_s`` must increase from call to call.
+        No tracker sample in an outage, above the tracker's rate limit, or ``blinded`` (a
+        bright object inside the tracker's exclusion, judged by the caller on the sky)."""
         t = float(t_s)
         if self._last_t is not None and not t > self._last_t:
             raise ValueError(f"measure: t_s must increase, got {t!r} after {self._last_t!r}")
@@ -84,7 +88,11 @@ class SensorSuite:
         self._bias = self._bias + self._walk_scale * rng.standard_normal(3)  # the next sample's
         self._last_t = t
         quat: _Floats | None = None
-        outage = any(a <= t < b for a, b in self.spec.star_tracker_outages_s)
+        outage = blinded or any(a <= t < b for a, b in self.spec.star_tracker_outages_s)
+        limit = self.spec.star_tracker_max_rate_rad_s
+        if limit is not None:
+            w = np.asarray(omega_b, dtype=float)
+            outage = outage or float(np.sqrt(w @ w)) > limit
         if star_tracker_due(t, self._rate, self.dt_s) and not outage:
             delta = self._st_noise * rng.standard_normal(3)
             q = quat_mul(_quat_from_mrp(sigma_bn), quat_from_rotvec(delta))

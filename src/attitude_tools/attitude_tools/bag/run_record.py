@@ -26,7 +26,9 @@ are what the loop was fed.
 
 ``RunResult.faults`` is the state watchdog replayed on the stamps of the states the
 loop was fed (:func:`attitude_core.fsw.fdir.state_watchdog.faults_from_stamps`), up to the
-last step: what the record shows, whatever the nodes logged.
+last step, and with sensors the star tracker's gaps
+(:func:`attitude_core.fsw.fdir.tracker_watch.tracker_outages`): what the record shows,
+whatever the nodes logged.
 """
 
 from __future__ import annotations
@@ -52,6 +54,7 @@ from attitude_core.contract.topics import (
     APPLIED_TORQUE,
     ATTITUDE,
     DIAGNOSTICS,
+    STAR_TRACKER,
     TARGET_MRP,
     TARGET_RATE,
     TORQUE,
@@ -60,6 +63,7 @@ from attitude_core.contract.topics import (
     stamp_ns,
 )
 from attitude_core.fsw.fdir.state_watchdog import faults_from_stamps
+from attitude_core.fsw.fdir.tracker_watch import tracker_outages
 from attitude_core.models.mrp import mrp_from_quat
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import Estimates, RunResult
@@ -75,6 +79,7 @@ _TOPICS = (
     DIAGNOSTICS,
     TRUTH_ATTITUDE,
     TRUTH_ANGULAR_VELOCITY,
+    STAR_TRACKER,
 )
 
 
@@ -202,6 +207,11 @@ def run_from_bag(
         int(stamps[-1]),
         int(stamps[0]),
     )
+    if scenario.sensors is not None and by_topic[STAR_TRACKER]:
+        fixes = [(s - int(stamps[0])) * 1e-9 for s in sorted(by_topic[STAR_TRACKER])]
+        end = (int(stamps[-1]) - int(stamps[0])) * 1e-9
+        tracker = tracker_outages(fixes, scenario.sensors.star_tracker_rate_hz, end)
+        run.faults = sorted(run.faults + tracker, key=lambda f: f.t_start_s)
     if sensing and scenario.sensors is not None:
         est_quat = np.array(
             [

@@ -36,7 +36,9 @@ gives it:
    orbit's RAAN, then its true anomaly (uniform, deg);
 7. the sensors (``sensors``): the run's ``sensors.seed``, then per key given the star
    tracker's noise factor, its rate, the gyro's noise and, per axis, its bias magnitude
-   and sign.
+   and sign;
+8. the link (``link``): the run's ``link.seed``, then per key given the latency, the
+   jitter and the loss rate, then the outage count and each outage's duration and start.
 
 A value range whose ends are equal gives its end and draws nothing (a count range is
 always drawn). An optional dispersion that the SPEC does not give draws nothing, and new
@@ -175,7 +177,31 @@ def _candidate(
         )
     if spec.sensors:
         _draw_sensors(spec, base, rng, flat)
+    if spec.link:
+        _draw_link(spec, rng, flat)
     return flat
+
+
+def _draw_link(spec: CampaignSpec, rng: np.random.Generator, flat: dict[str, Any]) -> None:
+    """Step 8 of the module docstring, into ``flat``: the run's rehearsal link."""
+    flat["link.seed"] = int(rng.integers(0, 2**31 - 1))
+    for field, key in (
+        ("link_latency_s", "link.state_latency_s"),
+        ("link_jitter_s", "link.jitter_s"),
+        ("link_drop_rate", "link.drop_rate"),
+    ):
+        span = getattr(spec, field)
+        if span is not None:
+            flat[key] = _uniform(rng, span.lo, span.hi)
+    if spec.outage_count is not None:
+        start, duration = spec.outage_start_s, spec.outage_duration_s
+        assert start is not None and duration is not None
+        lo, hi = spec.outage_count
+        outages: list[float] = []
+        for _ in range(int(rng.integers(lo, hi + 1))):
+            length = _uniform(rng, duration.lo, duration.hi)
+            outages += [_uniform(rng, start.lo, start.hi), max(length, 1e-3)]
+        flat["link.outages"] = outages
 
 
 def _draw_sensors(

@@ -21,6 +21,11 @@ A SPEC is YAML with one top-level ``campaign`` mapping (see docs/campaigns.md)::
           epoch_utc: ["2026-01-01T00:00:00Z", "2027-01-01T00:00:00Z"]
           raan_deg: [0.0, 360.0]
           true_anomaly_deg: [0.0, 360.0]
+        link:                                  # optional; a rehearsal link per run (link.*)
+          state_latency_s: [0.0, 0.15]
+          jitter_s: [0.0, 0.05]
+          drop_rate: [0.0, 0.1]
+          outages: {count: [0, 2], start_s: [0.0, 90.0], duration_s: [0.0, 3.0]}
         sensors:                               # optional; the base must declare sensors.*
           star_tracker_noise_scale: [0.5, 4.0] # times the base's noise_arcsec (its shape kept)
           star_tracker_rate_hz: [1.0, 10.0]
@@ -40,6 +45,11 @@ date-times, and the orbit's RAAN and true anomaly uniformly (deg); each of its k
 optional (absent: the base's value). The other orbit elements come from the base
 scenario, which must have an orbit.
 
+``link`` gives each run a rehearsal link (``link.*``) with its own ``link.seed`` and,
+per key given, a latency, a jitter and a loss rate drawn uniformly, and ``count``
+outages, each starting uniformly in ``start_s`` (s) for ``duration_s`` (s); the most
+latency plus jitter must stay below the base's ``fdir.state_timeout_s``.
+
 ``sensors`` needs a base scenario with ``sensors.*``: each run gets its own
 ``sensors.seed`` and, per key given, the star tracker's noise (the base's 3-vector times
 one uniform factor), its rate (Hz), the gyro's white noise (rad/s per sample) and its
@@ -49,6 +59,7 @@ base's.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from datetime import UTC, datetime, timedelta
@@ -128,6 +139,14 @@ class CampaignSpec:
     star_tracker_rate_hz: Range | None = None
     gyro_noise_rad_s: Range | None = None
     gyro_bias_rad_s: Range | None = None
+    # The rehearsal link drawn per run (False: the base's, no seed drawn).
+    link: bool = False
+    link_latency_s: Range | None = None
+    link_jitter_s: Range | None = None
+    link_drop_rate: Range | None = None
+    outage_count: tuple[int, int] | None = None
+    outage_start_s: Range | None = None
+    outage_duration_s: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
@@ -162,6 +181,7 @@ _DISPERSIONS = {
     "keep_in",
     "sky",
     "sensors",
+    "link",
 }
 _SKY = {"epoch_utc", "raan_deg", "true_anomaly_deg"}
 _SENSORS = {
@@ -170,6 +190,8 @@ _SENSORS = {
     "gyro_noise_rad_s",
     "gyro_bias_rad_s",
 }
+_LINK = {"state_latency_s", "jitter_s", "drop_rate", "outages"}
+_OUTAGES = {"count", "start_s", "duration_s"}
 # Keys of an instrument that name the base scenario's bright objects.
 _PER_OBJECT = ("exclusion_deg", "avoids")
 
@@ -341,7 +363,7 @@ def load_spec(path: str | Path) -> CampaignSpec:
         if sky.get("true_anomaly_deg") is not None:
             anomaly = r.pair(sky["true_anomaly_deg"], f"{key}.sky.true_anomaly_deg", -math.inf)
     sensors = False
-    sensor_ranges: dict[str, Range | None] = dict.fromkeys(_SENSORS)
+    sensor_ranges: dict[str, Any] = dict.fromkeys(_SENSORS)  # Range | None each
     if d.get("sensors") is not None:
         given = r.mapping(d["sensors"], f"{key}.sensors", _SENSORS)
         if base_scenario.sensors is None:
@@ -354,6 +376,7 @@ def load_spec(path: str | Path) -> CampaignSpec:
         for field, value in given.items():
             positive = field in ("star_tracker_noise_scale", "star_tracker_rate_hz")
             sensor_ranges[field] = r.pair(value, f"{key}.sensors.{field}", 0.0, positive)
+    link = _read_link(r, d.get("link"), f"{key}.link", base_scenario)
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)
@@ -365,7 +388,7 @@ def load_spec(path: str | Path) -> CampaignSpec:
             "campaign.planner_variants",
             f"expected distinct names from {list(VARIANTS)}, got {variants!r}",
         )
-    return CampaignSpec(
+    spec = CampaignSpec(
         name=name,
         runs=runs,
         seed=seed,
@@ -389,6 +412,42 @@ def load_spec(path: str | Path) -> CampaignSpec:
         sensors=sensors,
         **sensor_ranges,
     )
+    return dataclasses.replace(spec, **link)
+
+
+def _read_link(r: _Reader, value: Any, key: str, base: Scenario) -> dict[str, Any]:
+    """The ``link`` dispersions as :class:`CampaignSpec` fields (none: ``{}``)."""
+    if value is None:
+        return {}
+    given = r.mapping(value, key, _LINK)
+    out: dict[str, Any] = {"link": True}
+    for name, field in (
+        ("state_latency_s", "link_latency_s"),
+        ("jitter_s", "link_jitter_s"),
+        ("drop_rate", "link_drop_rate"),
+    ):
+        if given.get(name) is not None:
+            out[field] = r.pair(given[name], f"{key}.{name}", 0.0)
+    drop = out.get("link_drop_rate")
+    if drop is not None and drop.hi >= 1.0:
+        raise r.fail(f"{key}.drop_rate", f"must stay below 1, got up to {drop.hi}")
+    slowest = sum(out[f].hi for f in ("link_latency_s", "link_jitter_s") if f in out)
+    timeout = base.watchdog.state_timeout_s
+    if slowest >= timeout:
+        raise r.fail(
+            f"{key}.state_latency_s",
+            f"latency plus jitter up to {slowest:g} s: must stay below the base's "
+            f"fdir.state_timeout_s ({timeout:g} s)",
+        )
+    if given.get("outages") is not None:
+        outages = r.mapping(given["outages"], f"{key}.outages", _OUTAGES)
+        if any(outages.get(k) is None for k in _OUTAGES):
+            raise r.fail(f"{key}.outages", f"give {sorted(_OUTAGES)}")
+        out["outage_count"] = r.count(outages["count"], f"{key}.outages.count", lo=0)
+        out["outage_start_s"] = r.pair(outages["start_s"], f"{key}.outages.start_s", 0.0)
+        duration = r.pair(outages["duration_s"], f"{key}.outages.duration_s", 0.0)
+        out["outage_duration_s"] = duration
+    return out
 
 
 def _check_kept_instruments(r: _Reader, base: Scenario, key: str) -> None:

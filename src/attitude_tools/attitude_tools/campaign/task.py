@@ -97,6 +97,18 @@ def reproducer(spec: CampaignSpec, i: int, variant: str) -> str:
     return head + scenario_text(draw.flat)
 
 
+def _fault_columns(summary: dict[str, Any]) -> dict[str, Any]:
+    """The faults of a run behind a rehearsal link: how many, the time flown without a
+    fresh state (ended faults; s), and whether it ended in safe mode."""
+    faults = summary["faults"]
+    lost = [f for f in faults if f["kind"] == "state_lost" and f["t_end_s"] is not None]
+    return {
+        "n_faults": len(faults),
+        "stale_s": float(sum(f["t_end_s"] - f["t_start_s"] for f in lost)),
+        "safe_mode": any(f["kind"] == "safe_mode" for f in faults),
+    }
+
+
 def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
     """The results row of run ``i`` flown by ``variant``."""
     t0 = time.perf_counter()
@@ -149,6 +161,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "loop_s": t2 - t1,
         "metrics_s": t3 - t2,
         **_sensor_columns(sc, summary),
+        **_fault_columns(summary),
     }
     row["task_s"] = time.perf_counter() - t0
     return row

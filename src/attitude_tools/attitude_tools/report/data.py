@@ -47,6 +47,7 @@ SUMMARY_KEYS = (
     "peak_rate_to_bound",
     "final_rate_rad_s",
     "final_attitude_error_deg",
+    "faults",
     "knowledge_3sigma_deg",
     "estimation_error_deg_p99",
     "planner_step_us_median",

@@ -51,6 +51,7 @@ ROWS = (
     ("peak_rate_to_bound", "peak |omega| / max_rate_rad_s", ""),
     ("final_rate_rad_s", "final rate |omega|", "rad/s"),
     ("final_attitude_error_deg", "final attitude error", "deg"),
+    ("faults", "faults (start to end, shaded on the figures' timelines)", "s"),
     ("knowledge_3sigma_deg", "knowledge 3-sigma the guidance planned with (sensors)", "deg"),
     ("estimation_error_deg_p99", "estimate against truth, attitude error p99 (sensors)", "deg"),
     ("planner_step_us_median", "planner step time, median (/diagnostics)", "us"),
@@ -112,6 +113,14 @@ def format_value(value: Any) -> str:
         return str(value)
     if isinstance(value, float):
         return format(value, ".4g")
+    if isinstance(value, list):  # the faults: kind, start to end
+        if not value:
+            return "none"
+        return "; ".join(
+            f"{f['kind']} {f['t_start_s']:.4g} to "
+            + ("the end" if f["t_end_s"] is None else f"{f['t_end_s']:.4g}")
+            for f in value
+        )
     return str(value)
 
 
@@ -143,7 +152,7 @@ def _cell(key: str, value: Any) -> str:
         classes.append("bad" if value <= 0.0 else "good")
     if key == "reached" and value is not None:
         classes.append("good" if value else "bad")
-    if key == "planner_stuck" and value:
+    if key in ("planner_stuck", "faults") and value:
         classes.append("bad")
     attr = f' class="{" ".join(classes)}"' if classes else ""
     exact = html.escape(json.dumps(value), quote=True)

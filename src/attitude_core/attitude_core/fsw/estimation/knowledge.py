@@ -23,6 +23,11 @@ first state):
   settle to: then the bound is its 3-sigma at that time). The guidance holds the start
   until then, as flight software waits for attitude determination to converge before a
   slew: the buffer holds the settled 3-sigma, not the first fix's.
+* ``outage_3sigma_deg``: the attitude 3-sigma at the end of the longest declared star
+  tracker outage (``sensors.star_tracker.outages``), the filter propagating on the gyro
+  alone from its steady covariance; at least ``attitude_3sigma_deg``. The keep-out
+  buffer holds it (:attr:`Knowledge.buffer_3sigma_deg`): the body keeps its margin
+  through a scheduled outage.
 * ``first_fix_3sigma_deg``: ``3 sqrt(sum noise^2)`` of the star tracker, the 3-sigma of the
   filter's first estimate: a start estimated within it is the scenario's start (the
   route planned before the first state is flown from it).
@@ -68,6 +73,13 @@ class Knowledge:
     decision_window_s: float = 0.0
     settle_s: float = 0.0
     first_fix_3sigma_deg: float = 0.0
+    outage_3sigma_deg: float = 0.0
+
+    @property
+    def buffer_3sigma_deg(self) -> float:
+        """The 3-sigma the keep-out buffer holds: the settled one, or the one at the end
+        of the longest declared tracker outage."""
+        return max(self.attitude_3sigma_deg, self.outage_3sigma_deg)
 
     @property
     def perfect(self) -> bool:
@@ -86,7 +98,24 @@ def knowledge_of(spec: SensorSpec, dt_s: float) -> Knowledge:
     attitude = 3.0 * math.degrees(math.sqrt(max(trace, SETTLED_RATIO**2 * steady)))
     rate = 3.0 * math.sqrt(3.0 * spec.gyro_noise_rad_s**2 + float(np.trace(p[3:, 3:])))
     first = 3.0 * math.degrees(math.sqrt(sum(float(r) ** 2 for r in spec.star_tracker_noise_rad)))
-    return Knowledge(attitude, rate, DECISION_WINDOW_S, settle, first)
+    outage = _after_outage(
+        cfg, p, max((b - a for a, b in spec.star_tracker_outages_s), default=0.0)
+    )
+    return Knowledge(attitude, rate, DECISION_WINDOW_S, settle, first, max(attitude, outage))
+
+
+def _after_outage(cfg: MekfConfig, p: np.ndarray, duration_s: float) -> float:
+    """``3 sqrt(trace P_att)`` (deg) after ``duration_s`` of gyro-only propagation from the
+    covariance ``p``."""
+    if duration_s <= 0.0:
+        return 0.0
+    dt = cfg.dt_s
+    phi = np.eye(6)
+    phi[:3, 3:] = -dt * np.eye(3)
+    qd = process_noise(cfg, dt)
+    for _ in range(math.ceil(duration_s / dt)):
+        p = phi @ p @ phi.T + qd
+    return 3.0 * math.degrees(math.sqrt(float(np.trace(p[:3, :3]))))
 
 
 def _settle(cfg: MekfConfig, rate_hz: float, limit: float) -> tuple[float, float]:

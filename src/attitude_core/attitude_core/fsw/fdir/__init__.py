@@ -6,6 +6,7 @@
   and the controller alike.
 * :mod:`.state_predictor`: the body model flown on when no state comes, propagated from
   the last measured state with the torques actually commanded.
+* :mod:`.tracker_watch`: the star tracker's gaps (no solution) as faults.
 * :mod:`.outage_control`: what the controller commands at each loop tick without a
   fresh state (predict, brake, zero, safe).
 """

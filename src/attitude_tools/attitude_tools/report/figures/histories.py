@@ -1,6 +1,8 @@
 """Time-history figures (in: the figure context; out: a ``Figure``): MRP, angular
 velocity and control torque components and norms, with actuator limits and arrival
-times; :func:`arrival_lines` marks the arrival on any time axes."""
+times; :func:`arrival_lines` marks the arrival, and the run's faults (``summary.json``
+``faults``: a lost state, a tracker outage, safe mode) as shaded spans, on any time
+axes."""
 
 from __future__ import annotations
 
@@ -23,7 +25,42 @@ from .style import COMPONENT_COLORS, RUN_COLORS
 if TYPE_CHECKING:
     from matplotlib.artist import Artist
 
-__all__ = ["arrival_lines", "fig_history_mrp", "fig_history_rate", "fig_history_torque"]
+__all__ = [
+    "arrival_lines",
+    "fault_spans",
+    "fig_history_mrp",
+    "fig_history_rate",
+    "fig_history_torque",
+]
+
+FAULT_COLORS = {
+    "state_lost": "tab:orange",
+    "star_tracker_outage": "tab:purple",
+    "safe_mode": "tab:red",
+}
+"""The shade of each fault kind (:class:`attitude_core.contract.faults.FaultKind`)."""
+
+
+def fault_spans(ctx: FigureContext, axes: Iterable[Axes]) -> list[Artist]:
+    """Each fault of each run shaded from its start to its end (the run's last time if
+    it never ended), ``gid`` ``fault/<kind>/<k>``; one legend handle per kind shown."""
+    from matplotlib.patches import Patch
+
+    shown: dict[str, Artist] = {}
+    axes = list(axes)
+    for run in ctx.runs:
+        t_last = float(run.run.t[-1]) if len(run.run.t) else 0.0
+        for k, fault in enumerate(run.summary.get("faults") or []):
+            kind = str(fault["kind"])
+            color = FAULT_COLORS.get(kind, "0.5")
+            end = fault["t_end_s"] if fault["t_end_s"] is not None else t_last
+            for ax in axes:
+                ax.axvspan(
+                    fault["t_start_s"], end, color=color, alpha=0.15, linewidth=0,
+                    gid=f"fault/{kind}/{k}",
+                )  # fmt: skip
+            shown.setdefault(kind, Patch(color=color, alpha=0.3, label=kind.replace("_", " ")))
+    return list(shown.values())
 
 
 def arrival_lines(ctx: FigureContext, axes: Iterable[Axes]) -> list[Artist]:
@@ -101,7 +138,7 @@ def _history(
             axn.axhline(on_norm, color="black", linestyle=":")
         if per_axis is not None or on_norm is not None:
             handles.append(Line2D([], [], color="0.3", linestyle=":", label="actuator limit"))
-        handles += arrival_lines(ctx, (ax, axn))
+        handles += arrival_lines(ctx, (ax, axn)) + fault_spans(ctx, (ax, axn))
         ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         axn.set_xlabel("time (s)")
         axes = (ax, axn)
@@ -133,7 +170,7 @@ def _history(
         ]
         if target is not None:
             handles.append(Line2D([], [], color="0.3", linestyle="--", label=target_label))
-        handles += arrival_lines(ctx, axes)
+        handles += arrival_lines(ctx, axes) + fault_spans(ctx, axes)
         fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 3))
     fig.suptitle(f"{ctx.title}: {name}")
     return fig

@@ -15,6 +15,7 @@ from matplotlib.lines import Line2D
 from ..geometry import KeepIn, Pair
 from ..sky import constraint_margins_deg, pair_margins_deg
 from .context import FigureContext, Floats
+from .histories import fault_spans
 from .margin_series import run_keep_in_margins, run_margins
 from .style import KEEP_IN_LINE, RUN_COLORS
 
@@ -65,7 +66,9 @@ def fig_margin(ctx: FigureContext) -> Figure:
         ax.set_xlabel("time (s)")
         ax.set_ylabel("keep-out margin (deg)" if not ctx.keep_ins else "margin (deg)")
         title = "instrument / object" + (", keep-in cone" if ctx.keep_ins else "")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=title)
+        faults = fault_spans(ctx, [ax])  # the run's faults on its timeline
+        handles = ax.get_legend_handles_labels()[0] + faults
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), title=title)
         ax.set_title(f"{ctx.title}: {'keep-out ' if not ctx.keep_ins else 'constraint '}margin")
         return fig
     # Comparison: the smallest margin over all constraints, then one panel per constraint.
