@@ -392,3 +392,40 @@ def test_broken_bridge_fails_on_its_point(ros_env, script, point, words):
     assert by_point["sigint"].startswith("PASS sigint"), lines  # the wrappers stop cleanly
     if script == "wrong_frame.py":  # one fault, one failing point
         assert [p for p, line in by_point.items() if line.startswith("FAIL")] == ["frames"]
+
+
+# --- the link point on plain recordings -------------------------------------------------
+
+
+def _realtime_link(gap_at: int | None = None, latency_s: float = 0.05, gap: int = 10) -> object:
+    """A real-time recording of 100 states at 10 Hz received ``latency_s`` late on this
+    host's clock (offset 1000 s from its monotonic clock), ``gap`` states lost from
+    ``gap_at``."""
+    states = [k for k in range(100) if gap_at is None or not gap_at <= k < gap_at + gap]
+    base = 5_000_000_000
+    att = [(base + k * 100_000_000, "inertial", (0.0, 0.0, 0.0, 1.0)) for k in states]
+    rate = [(s, "body", (0.0, 0.0, 0.0)) for s, _, _ in att]
+    rec = plain(REALTIME, att, rate)
+    rec.system_offset_s = 1000.0  # receipt times on the monotonic clock, stamps on the system's
+    rec.attitude = [a._replace(wall_s=a.stamp_ns * 1e-9 + latency_s - 1000.0) for a in rec.attitude]
+    rec.rate = [r._replace(wall_s=r.stamp_ns * 1e-9 + latency_s - 1000.0) for r in rec.rate]
+    return rec
+
+
+def test_link_point_measures_latency_and_losses_against_the_watchdog():
+    link_mod = importlib.import_module("attitude_conformance.checks_link")
+    steps_mod = importlib.import_module("attitude_conformance.steps")
+    rec = _realtime_link()
+    ok = link_mod.check_link(rec, steps_mod.states(rec))
+    assert ok.status == "PASS", ok.line()
+    assert "latency 50.0 ms" in ok.detail and "0.0% of states lost" in ok.detail
+    rec = _realtime_link(gap_at=40)
+    gap = link_mod.check_link(rec, steps_mod.states(rec))
+    assert gap.status == "PASS" and "longest wait 1.100 s" in gap.detail
+    assert "10.0% of states lost" in gap.detail and "on its prediction" in gap.detail
+    rec = _realtime_link(gap_at=40, gap=40)
+    dead = link_mod.check_link(rec, steps_mod.states(rec))
+    assert dead.status == "FAIL" and "would fly braking" in dead.detail
+    rec = _realtime_link(latency_s=0.4)
+    late = link_mod.check_link(rec, steps_mod.states(rec))
+    assert late.status == "FAIL" and "latency 400.0 ms" in late.detail

@@ -85,6 +85,7 @@ class BridgeCheckNode(loop.CheckNode):
         self.mode = own.mode
         self.scenario = load_scenario(own.scenario)
         self.rec = Recording(Setup.from_scenario(self.scenario, self.mode))
+        self.rec.system_offset_s = time.time() - time.monotonic()  # the link's latency
         self.driver = Driver(self.rec)
         self.sampler = Sampler(self.rec, self.driver)
         self.watch = Watch(self.driver, own.timeout_s, time.monotonic())

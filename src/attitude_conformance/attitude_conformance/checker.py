@@ -14,6 +14,8 @@ point              judged from
 ``applied_torque`` stamped with the step's state, the torque applied (SKIP if never sent)
 ``resend``         lockstep: the identical state again every resend period without torque
 ``stale``          lockstep: hold one step, then zero torque; real time: zero once stale
+``link``           the states' latency, jitter, losses and longest wait against the stack's
+                   ``fdir.state_timeout_s`` (:mod:`.checks_link`)
 =================  ==========================================================================
 
 ``qos``, ``plant`` and ``sigint`` are judged in :mod:`.checks_process`.
@@ -21,6 +23,7 @@ point              judged from
 
 from __future__ import annotations
 
+from .checks_link import check_link
 from .checks_messages import check_clock, check_frames, check_quaternion, check_stamps
 from .checks_physics import check_applied, check_resend, check_stale, check_torque_step
 from .record import Recording, Result
@@ -42,4 +45,5 @@ def judge(rec: Recording) -> list[Result]:
         check_applied(rec, seq, taken),
         check_resend(rec, seq),
         check_stale(rec, taken),
+        check_link(rec, seq),
     ]

@@ -15,6 +15,7 @@ import numpy as np
 from attitude_core.config.node_parameters import SIMULATOR
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.time_mode import TimeMode
+from attitude_core.fsw.fdir.fdir_config import FdirConfig
 
 PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
 POINTS = (
@@ -28,6 +29,7 @@ POINTS = (
     "applied_torque",
     "resend",
     "stale",
+    "link",
     "sigint",
 )
 
@@ -74,6 +76,7 @@ class Setup:
     initial_mrp: np.ndarray
     initial_rate: np.ndarray
     limits: BridgeLimits = BridgeLimits()
+    fdir: FdirConfig | None = None  # the stack's state watchdog (None: the step's defaults)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, mode: str = TimeMode.LOCKSTEP) -> Setup:
@@ -83,7 +86,12 @@ class Setup:
             np.asarray(scenario.inertia_kgm2, dtype=float).reshape(3, 3),
             np.asarray(scenario.initial_mrp, dtype=float),
             np.asarray(scenario.initial_rate_rad_s, dtype=float),
+            fdir=scenario.watchdog,
         )
+
+    @property
+    def watchdog(self) -> FdirConfig:
+        return FdirConfig.for_step(self.dt_s) if self.fdir is None else self.fdir
 
     @property
     def dt_ns(self) -> int:
@@ -106,6 +114,7 @@ class Recording:
     torques: list[Sample] = field(default_factory=list)  # sent by the tool
     windows: list[Window] = field(default_factory=list)
     aborted: str | None = None  # why the script stopped early
+    system_offset_s: float | None = None  # this host's time.time() - time.monotonic()
 
 
 class Result(NamedTuple):
