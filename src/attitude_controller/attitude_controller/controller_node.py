@@ -12,12 +12,9 @@ never turned into torque.
 The state watchdog (:mod:`attitude_core.fsw.fdir`) ticks on the stack's clock
 (:mod:`attitude_ros.loop_clock`: each ``/clock`` from a lockstep plant, else a wall timer
 of the loop's step): once the newest state is older than ``fdir.state_timeout_s`` the
-controller answers each tick itself, stamped with the tick, from the state predicted
-with the body model and the torques it commanded (towards the last target, held at
-rest; after ``fdir.predict_s`` braking the predicted rate, then zero torque; in safe
-mode after ``fdir.safe_after_s`` the same).
-Deactivated in real time, it sends a zero torque at once, so a plant that holds the
-last command holds a zero.
+controller answers each tick itself, stamped with the tick, from its prediction of the
+body (:mod:`attitude_core.fsw.fdir.outage_control`). Deactivated in real time, it sends
+a zero torque at once, so a plant that holds the last command holds a zero.
 
 ``fault.drop_torque_fraction`` (test mode, default 0) drops that fraction of the torque
 messages (seeded by ``fault.seed``), to test that a lossy link neither deadlocks a
@@ -27,6 +24,7 @@ lockstep run nor breaks a constraint.
 from __future__ import annotations
 
 import random
+from typing import Any
 
 from geometry_msgs.msg import WrenchStamped
 
@@ -101,12 +99,11 @@ class PdControllerNode(StackNode):
 
     def new_outage(self, origin_ns: int | None = None) -> OutageControl:
         sc = self.scenario
-        limit = sc.actuators.max_torque_nm
-        return OutageControl(sc.watchdog, self.gains, limit, sc.inertia_kgm2, sc.dt_s, origin_ns)
+        bound, j = sc.actuators.max_torque_nm, sc.inertia_kgm2
+        return OutageControl(sc.watchdog, self.gains, bound, j, sc.dt_s, origin_ns)
 
     def on_rebase(self) -> None:
-        """The first ``/clock``: the watchdog starts again on sim time (stamps), its
-        fault times from the first state's stamp."""
+        """The first ``/clock``: the watchdog starts again on sim time (stamps)."""
         self.outage = self.new_outage(self.first_stamp)
 
     def answer(self, stamp: int, stamp_msg, inputs) -> None:
@@ -127,9 +124,13 @@ class PdControllerNode(StackNode):
         self.last_torque = out
 
     def on_tick(self, now: int) -> None:
-        """A tick of the stack's clock: the watchdog's answer when the state is stale."""
+        """The watchdog's answer to a tick when the state is stale (not the target)."""
         if not self.takes_input:
             return
+        waiting = self.intake.newest_with((0, 1))
+        if waiting is not None:
+            stamp, (sigma_bn, omega_b, *_) = waiting
+            self.outage.measured(self.clock.state_time_ns(stamp), sigma_bn, omega_b, now)
         answer = self.outage.tick(now)
         if answer is None:
             return
@@ -137,10 +138,13 @@ class PdControllerNode(StackNode):
         if answer.mode != self.mode:
             self.mode = answer.mode
             self.get_logger().warning(f"state watchdog: {answer.mode} at {now / 1e9:.3f} s")
-        out = self.out_tick
-        cv.set_stamp(out.header.stamp, now)
-        set_vector3(out.wrench.torque, answer.torque_b if self.active else 0.0 * answer.torque_b)
-        self.publish(out)
+        self.send_tick(now, answer.torque_b if self.active else 0.0 * answer.torque_b)
+
+    def send_tick(self, stamp_ns: int, torque_b: Any) -> None:
+        """A torque of its own, stamped with a tick of the stack's clock."""
+        cv.set_stamp(self.out_tick.header.stamp, stamp_ns)
+        set_vector3(self.out_tick.wrench.torque, torque_b)
+        self.publish(self.out_tick)
 
     @property
     def takes_input(self) -> bool:
@@ -151,10 +155,7 @@ class PdControllerNode(StackNode):
     def deactivate(self) -> None:
         self.get_logger().info("deactivated: zero torque from now on")
         if self.last_stamp is not None and not self.clock.lockstep:
-            out = self.out_tick  # real time: the plant holds the last command: a zero
-            cv.set_stamp(out.header.stamp, self.clock.now_ns())
-            set_vector3(out.wrench.torque, (0.0, 0.0, 0.0))
-            self.pub_torque.publish(out)
+            self.send_tick(self.clock.now_ns(), (0.0, 0.0, 0.0))  # a plant holds the last
 
     def publish(self, out: WrenchStamped) -> None:
         if self.drop_fraction and self.rng.random() < self.drop_fraction:

@@ -72,6 +72,15 @@ class StampPairing:
         """Refused messages: implausible stamps (the gate's count) and bad values."""
         return self.gate.rejected + self.bad_values
 
+    def newest_with(self, slots: tuple[int, ...]) -> tuple[int, list[Any]] | None:
+        """The newest pending stamp whose ``slots`` are all in, and its inputs (None:
+        none): e.g. a state whose target has not come yet."""
+        for stamp in sorted(self.pending, reverse=True):
+            inputs = self.pending[stamp]
+            if all(inputs[k] is not None for k in slots):
+                return stamp, inputs
+        return None
+
     def offer(
         self,
         slot: int,
