@@ -31,8 +31,8 @@ def run_patched(attitude: Patch | None = None, rate: Patch | None = None) -> int
         def __init__(self, **kwargs) -> None:
             super().__init__(**kwargs)
             if attitude is not None:
-                wrap(self.pub_att, attitude, self)
+                wrap(self.out.state.pub_att, attitude, self)
             if rate is not None:
-                wrap(self.pub_rate, rate, self)
+                wrap(self.out.state.pub_rate, rate, self)
 
     return run(PatchedSim, sys.argv)

@@ -38,6 +38,14 @@ CASE1 = ROOT / "scenarios" / "case1.yaml"
 WAIT_S = 10.0  # deadline of every wait for a condition
 QUIET_S = 0.3  # extra spinning before a (supplementary) "nothing arrived" check
 TOL = 1e-12
+HAND_FED = {
+    "fdir__state_timeout_s": 3600.0,
+    "fdir__predict_s": 7200.0,
+    "fdir__safe_after_s": 10800.0,
+}
+"""Overrides for a node fed states by hand, slower than its loop in wall time: its state
+watchdog (tested in ``test_link_ros.py`` and ``tests/core``) would rightly call them
+stale and fly on predictions between them; these tests check the answers to the states."""
 
 
 # --- the ROS session of the ``ros`` fixture, and its helpers ----------------------------

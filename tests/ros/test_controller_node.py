@@ -11,6 +11,7 @@ from geometry_msgs.msg import WrenchStamped
 from shells import (
     CASE1,
     DT_NS,
+    HAND_FED,
     QUIET_S,
     RosSession,
     assert_close,
@@ -102,7 +103,7 @@ def check_torque(msg: WrenchStamped, ns: int, expected) -> None:
 
 
 def test_controller_torque_per_stamp_in_any_input_order(ros, scenario):
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     p = ControllerProbe(ros, scenario)
     rng = np.random.default_rng(20240295)
     orders = list(itertools.permutations(range(4)))[::5]  # 5 different orders
@@ -134,7 +135,7 @@ def test_controller_torque_per_stamp_in_any_input_order(ros, scenario):
 
 
 def test_controller_rejects_non_finite_inputs(ros, scenario):
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     p = ControllerProbe(ros, scenario)
     rng = np.random.default_rng(7)
     bad_values = {
@@ -165,7 +166,7 @@ def test_controller_rejects_non_finite_inputs(ros, scenario):
 
 
 def test_controller_rejects_inputs_stamped_before_its_last_torque(ros, scenario):
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     p = ControllerProbe(ros, scenario)
     rng = np.random.default_rng(11)
     inputs = random_inputs(rng)
@@ -183,7 +184,7 @@ def test_controller_rejects_inputs_stamped_before_its_last_torque(ros, scenario)
 def test_controller_rejects_inputs_in_another_frame(ros, scenario):
     """Each input's frame_id is the contract's (attitude ``inertial``, rate ``body``,
     targets ``inertial`` and ``target``): any other is rejected, counted, never torque."""
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     p = ControllerProbe(ros, scenario)
     rng = np.random.default_rng(11)
     ns = DT_NS
@@ -214,7 +215,7 @@ def test_controller_scales_its_command_into_the_actuator_bound(ros, scenario, tm
             f"    actuators:\n      max_torque_nm: {list(bound)}\n    controller:\n",
         )
     )
-    ros.init(path)
+    ros.init(path, **HAND_FED)
     p = ControllerProbe(ros, scenario)
     assert p.node.has_parameter("actuators.max_torque_nm")
     assert not p.node.has_parameter("actuators.max_rate_rad_s")  # the planner's, not its

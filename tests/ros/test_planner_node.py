@@ -7,7 +7,17 @@ import math
 import numpy as np
 import pytest
 from geometry_msgs.msg import QuaternionStamped
-from shells import CASE1, DT_NS, QUIET_S, RosSession, assert_close, attitude_msg, vector_msg, xyz
+from shells import (
+    CASE1,
+    DT_NS,
+    HAND_FED,
+    QUIET_S,
+    RosSession,
+    assert_close,
+    attitude_msg,
+    vector_msg,
+    xyz,
+)
 
 from attitude_core.assembly.guidance import guidance_from_scenario, planner_from_scenario
 from attitude_core.contract import diagnostics
@@ -63,7 +73,7 @@ class PlannerProbe:
 
 
 def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     p = PlannerProbe(ros)
     path = planner_from_scenario(scenario)
     exact = scenario.cone_geometry()
@@ -133,7 +143,7 @@ def test_planner_answers_each_stamp_with_the_core_planner(ros, scenario):
 
 
 def test_planner_rejects_an_attitude_in_another_frame(ros, scenario):
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     p = PlannerProbe(ros)
     quat = quat_from_mrp(scenario.initial_mrp)
     for frame in ("body", "", "map"):
@@ -153,7 +163,7 @@ def test_best_effort_state_publisher_connects_through_qos_overrides(ros, scenari
     from rclpy.qos import QoSProfile, ReliabilityPolicy
 
     override = "qos_overrides./spacecraft/attitude.subscription.reliability"
-    ros.init(CASE1, **{override.replace(".", "__"): "best_effort"})
+    ros.init(CASE1, **HAND_FED, **{override.replace(".", "__"): "best_effort"})
     planner = ros.add(FepfPlannerNode())
     driver = ros.probe.create_publisher(
         QuaternionStamped,
@@ -185,7 +195,7 @@ def test_best_effort_state_publisher_does_not_connect_by_default(ros):
     the project's simulator; a best-effort publisher is incompatible and never matches."""
     from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-    ros.init(CASE1)
+    ros.init(CASE1, **HAND_FED)
     planner = ros.add(FepfPlannerNode())
     reliable = ros.publisher(c.ATTITUDE)  # a contract publisher matches: discovery works
     driver = ros.probe.create_publisher(

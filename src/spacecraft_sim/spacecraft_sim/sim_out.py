@@ -27,11 +27,13 @@ __all__ = ["StatePair", "SimOutputs"]
 
 
 class StatePair:
-    """The publishers and messages of ``topics`` (attitude, rate) of ``node``."""
+    """The publishers and messages of ``node``'s state topics: the truth's
+    (``/spacecraft/truth/*``) when ``truth``, else the loop's (``/spacecraft/*``)."""
 
-    def __init__(self, node: Any, topics: tuple[str, str]) -> None:
-        self.pub_att, self.pub_rate = publisher(node, topics[0]), publisher(node, topics[1])
-        self.msg_att, self.msg_rate = message(topics[0]), message(topics[1])
+    def __init__(self, node: Any, truth: bool) -> None:
+        att, rate = c.TRUTH_TOPICS if truth else c.STATE_TOPICS
+        self.pub_att, self.pub_rate = publisher(node, att), publisher(node, rate)
+        self.msg_att, self.msg_rate = message(att), message(rate)
 
     def fill(self, state: StateOut) -> None:
         """Write ``state`` (its stamp, ``sigma_BN`` as a quaternion, ``omega_B``)."""
@@ -53,8 +55,8 @@ class SimOutputs:
         sensing = sc.sensors is not None
         self.lockstep = lockstep
         # The loop's state (the truth with sensors); behind a link, the truth apart.
-        self.state = StatePair(node, c.TRUTH_TOPICS if sensing else c.STATE_TOPICS)
-        self.truth = None if sc.link is None else StatePair(node, c.TRUTH_TOPICS)
+        self.state = StatePair(node, truth=sensing)
+        self.truth = None if sc.link is None else StatePair(node, truth=True)
         self.sensors = None if sc.sensors is None else SensorOut(node, sc, sc.sensors)
         self.pub_clock = publisher(node, c.CLOCK)
         self.pub_applied = publisher(node, c.APPLIED_TORQUE)
