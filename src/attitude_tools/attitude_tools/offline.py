@@ -21,10 +21,11 @@ from attitude_core.contract import diagnostics
 from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import RunResult
+from attitude_core.record.wheel_figures import inertial_momentum
 from attitude_tools.output.rundir import check_replaceable, publish, stage
 from attitude_tools.output.strict_json import dump_strict, dumps_strict
 
-__all__ = ["TIMESERIES_COLUMNS", "ESTIMATE_COLUMNS", "write_run", "main"]
+__all__ = ["TIMESERIES_COLUMNS", "ESTIMATE_COLUMNS", "wheel_columns", "write_run", "main"]
 
 
 TIMESERIES_COLUMNS = (
@@ -46,6 +47,17 @@ ESTIMATE_COLUMNS = (
 """Appended with declared sensors: the estimate the loop was fed, its 3-sigma and NEES."""
 
 
+def wheel_columns(names: tuple[str, ...]) -> list[str]:
+    """Appended with wheels: per wheel its speed relative to the body (rad/s), the motor
+    torque commanded and applied (N m), then the system momentum, inertial axes (N m s)."""
+    return (
+        [f"{w}_speed_rad_s" for w in names]
+        + [f"{w}_commanded_nm" for w in names]
+        + [f"{w}_applied_nm" for w in names]
+        + [f"h_system_n_{i}_nms" for i in (1, 2, 3)]
+    )
+
+
 def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
     """Write ``summary.json`` and ``timeseries.csv`` atomically into ``out_dir``.
 
@@ -62,6 +74,15 @@ def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
         if est is not None:
             columns += ESTIMATE_COLUMNS
             extra = [est.sigma_bn, est.omega_b, est.attitude_3sigma_deg, est.nees]
+        wheels, array = run.wheels, run.scenario.wheels
+        if wheels is not None and array is not None:
+            columns += wheel_columns(array.names)
+            extra += [
+                wheels.speed_rad_s,
+                wheels.commanded_nm,
+                wheels.applied_nm,
+                inertial_momentum(run),
+            ]
         table = np.column_stack(
             [
                 run.t,

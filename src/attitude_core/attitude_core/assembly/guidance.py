@@ -16,13 +16,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from attitude_core.assembly.guidance_limits import scenario_limits
 from attitude_core.config.scenario import Scenario
 from attitude_core.fsw.guidance.fepf import FepfPlanner, load_planner_fis
 from attitude_core.fsw.guidance.fuzzy import MamdaniFis, lookup_table
 from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.fsw.guidance.guidance_base import Executor
 from attitude_core.fsw.guidance.moving_sky import SkyGuide, nominal_eta_s
-from attitude_core.fsw.guidance.profile_limits import GuidanceLimits, time_bound_s
+from attitude_core.fsw.guidance.profile_limits import time_bound_s
 from attitude_core.fsw.guidance.route import Route, RoutePlanner
 from attitude_core.models.mrp import Vec3Like, angle_between_single
 
@@ -103,10 +104,7 @@ def scenario_eta_s(scenario: Scenario, sigma_0: Vec3Like) -> float:
     """Expected slew time of a scenario from ``sigma_0``: the principal angle to the goal
     with half again for the detours (:func:`nominal_eta_s`)."""
     rotation = 1.5 * angle_between_single(sigma_0, scenario.desired_mrp)
-    act = scenario.actuators
-    lim = GuidanceLimits.from_actuators(
-        scenario.inertia_kgm2, act.max_torque_nm, scenario.guidance_max_rate_rad_s
-    )
+    lim = scenario_limits(scenario, sigma_0)
     bound = time_bound_s(rotation, lim.max_rate_rad_s, lim.alpha_max_rad_s2)
     return nominal_eta_s(rotation, scenario.planner.max_attractive_rate_mrp_s, bound)
 
@@ -125,7 +123,6 @@ def guidance_from_scenario(
     ``prepared`` (:func:`prepare_guidance`) gives both: its route is taken when ``sigma_0`` is
     the scenario's start (on estimates: within the first fix's 3-sigma of it; the
     planner node then answers its first state without planning a route)."""
-    act = scenario.actuators
     fis = None if prepared is None else prepared.fis
     planner = planner_from_scenario(scenario, sigma_0, watchdog=False, fis=fis)
     if prepared is not None:
@@ -144,9 +141,7 @@ def guidance_from_scenario(
         initial_route = sky_guide.plan_route(0.0, eta, planner.sigma_t, planner.goal)
     return Guidance(
         planner,
-        GuidanceLimits.from_actuators(
-            scenario.inertia_kgm2, act.max_torque_nm, scenario.guidance_max_rate_rad_s
-        ),
+        scenario_limits(scenario, planner.sigma_t),
         scenario.guidance_arrival.attitude_tol_deg,
         scenario.guidance_arrival.rate_tol_rad_s,
         routes,

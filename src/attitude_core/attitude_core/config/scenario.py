@@ -24,6 +24,8 @@ from attitude_core.models.ephemeris import Orbit, parse_epoch_utc
 from attitude_core.models.link_spec import LinkSpec
 from attitude_core.models.sensor_spec import SensorSpec
 from attitude_core.models.sky import Motion, Sky
+from attitude_core.models.wheel_array import WheelArray
+from attitude_core.world.disturbances import Disturbances
 
 __all__ = [
     "ScenarioError",
@@ -165,6 +167,8 @@ class Scenario:
     sensors: SensorSpec | None = None  # None: perfect knowledge (the true state is fed)
     fdir: FdirConfig | None = None  # the state watchdog's limits (None: the defaults)
     link: LinkSpec | None = None  # the rehearsal link (None: states go out as made)
+    wheels: WheelArray | None = None  # reaction wheels (None: actuators.*, a torque box)
+    disturbances: Disturbances | None = None  # external torques (None: none)
 
     @property
     def watchdog(self) -> FdirConfig:

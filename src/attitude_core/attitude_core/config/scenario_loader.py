@@ -88,6 +88,7 @@ from attitude_core.config.scenario_schema import (
     SCENARIO_PARAMETERS,
     group_names_param,
 )
+from attitude_core.config.scenario_wheels import parse_disturbances, parse_wheels
 from attitude_core.fsw.guidance.planner_config import PlannerConfig
 from attitude_core.yamlio import load_strict
 
@@ -181,6 +182,9 @@ def parse_scenario(
     )
     sensors = parse_sensors(values, source)
     fdir = parse_fdir(values, source, values["dt_s"])
+    link = parse_link(values, source, fdir, sensors)
+    orbit = parse_orbit(values, source)
+    wheels = parse_wheels(groups["wheels"], per_name["wheels"], values, source, sensors, link)
     scenario = Scenario(
         name=values["scenario_name"],
         source=str(source),
@@ -207,10 +211,12 @@ def parse_scenario(
             for name, d in zip(groups["keep_in"], per_name["keep_in"], strict=True)
         ),
         epoch_utc=values["epoch_utc"],
-        orbit=parse_orbit(values, source),
+        orbit=orbit,
         sensors=sensors,
         fdir=fdir,
-        link=parse_link(values, source, fdir, sensors),
+        link=link,
+        wheels=wheels,
+        disturbances=parse_disturbances(values, source, orbit, wheels),
     )
     check_sky(scenario, source)
 

@@ -37,6 +37,8 @@ __all__ = [
     "SENSOR_REQUIRED",
     "FDIR_PARAMETERS",
     "LINK_PARAMETERS",
+    "DISTURBANCE_PARAMETERS",
+    "WHEEL_PARAMETERS",
     "EXCLUSION_PARAMETER",
     "GROUPS",
     "OPTIONAL_GROUPS",
@@ -262,6 +264,22 @@ LINK_PARAMETERS = (
 """The ``link.*`` keys (:class:`attitude_core.models.link_spec.LinkSpec`): any one
 declares the link, the others default to none."""
 
+DISTURBANCE_PARAMETERS = (
+    Param(
+        "disturbances.gravity_gradient",
+        ParamKind.BOOL,
+        "gravity-gradient torque on the spacecraft from its orbit (needs orbit.*)",
+        False,
+    ),
+    Param(
+        "disturbances.constant_torque_nm",
+        ParamKind.VEC3,
+        "a constant external torque, body axes, N m (absent: none)",
+        None,
+    ),
+)
+"""External torques on the plant (:mod:`attitude_core.world.disturbances`)."""
+
 SCENARIO_PARAMETERS = (
     Param("scenario_name", ParamKind.NAME, "name used in outputs ([A-Za-z][A-Za-z0-9_]*)"),
     Param("sim_time_s", ParamKind.FLOAT, "simulated time, s (>= dt_s)", bounds=gt(0.0)),
@@ -452,6 +470,7 @@ SCENARIO_PARAMETERS = (
     *SENSOR_PARAMETERS,
     *FDIR_PARAMETERS,
     *LINK_PARAMETERS,
+    *DISTURBANCE_PARAMETERS,
 )
 """Top-level, controller, planner, arrival and sensor keys, in validation order."""
 
@@ -523,18 +542,55 @@ KEEP_IN_PARAMETERS = (
         bounds=Bounds(0.0, 180.0, lo_open=True, hi_open=True),
     ),
 )
-GROUPS = ("instruments", "bright_objects", "keep_in")
-OPTIONAL_GROUPS = ("keep_in",)
+WHEEL_PARAMETERS = (
+    Param(
+        "spin_axis_body",
+        ParamKind.UNIT3,
+        "reaction wheel spin axis g_i, body axes (normalised on load)",
+    ),
+    Param("max_torque_nm", ParamKind.FLOAT, "largest motor torque, N m", bounds=gt(0.0)),
+    Param(
+        "max_speed_rpm",
+        ParamKind.FLOAT,
+        "speed limit relative to the body, rpm (the wheel refuses torque beyond it)",
+        bounds=gt(0.0),
+    ),
+    Param(
+        "spin_inertia_kgm2",
+        ParamKind.FLOAT,
+        "inertia about the spin axis, kg m^2 (inside inertia_kgm2, the wheels locked)",
+        bounds=gt(0.0),
+    ),
+    Param(
+        "initial_speed_rpm",
+        ParamKind.FLOAT,
+        "speed relative to the body at t = 0, rpm",
+        0.0,
+    ),
+    Param(
+        "fails_at_s",
+        ParamKind.FLOAT,
+        "from this time on the wheel applies no torque, s (absent: never)",
+        None,
+        ge(0.0),
+    ),
+)
+"""Per wheel, under ``wheels.<name>.`` (:class:`attitude_core.models.wheel_array.WheelSpec`)."""
+
+GROUPS = ("instruments", "bright_objects", "keep_in", "wheels")
+OPTIONAL_GROUPS = ("keep_in", "wheels")
 """Groups whose ``<group>.names`` may be absent (no member)."""
 GROUP_PARAMETERS = {
     "instruments": INSTRUMENT_PARAMETERS,
     "bright_objects": OBJECT_PARAMETERS,
     "keep_in": KEEP_IN_PARAMETERS,
+    "wheels": WHEEL_PARAMETERS,
 }
 _GROUP_TEXT = {
     "instruments": "names of the instruments",
     "bright_objects": "names of the bright_objects",
     "keep_in": "names of the keep-in cones (absent: none)",
+    "wheels": "names of the reaction wheels (absent: actuators.* or an ideal torque)",
 }
 
 

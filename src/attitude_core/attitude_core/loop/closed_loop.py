@@ -32,6 +32,7 @@ from attitude_core.fsw.fdir.tracker_watch import tracker_outages
 from attitude_core.loop.linked_loop import run_linked_loop
 from attitude_core.loop.loop_plant import loop_plant
 from attitude_core.loop.sensing import OnboardEstimation
+from attitude_core.loop.wheel_loop import run_wheel_loop
 from attitude_core.record.trajectory import Estimates, RunResult
 from attitude_core.world.rigid_body import RigidBody
 
@@ -40,9 +41,12 @@ __all__ = ["run_closed_loop"]
 
 def run_closed_loop(scenario: Scenario) -> RunResult:
     """Simulate the whole scenario (``sim_time_s``) and return the sampled trajectory;
-    behind a declared link, :func:`attitude_core.loop.linked_loop.run_linked_loop`."""
+        behind a declared link, :func:`attitude_core.loop.linked_loop.run_linked_loop`; with
+    wheels, :func:`attitude_core.loop.wheel_loop.run_wheel_loop`."""
     if scenario.link is not None:
         return run_linked_loop(scenario)
+    if scenario.wheels is not None:
+        return run_wheel_loop(scenario)
     wall0 = time.perf_counter()
     n = scenario.n_steps
     dt = scenario.dt_s

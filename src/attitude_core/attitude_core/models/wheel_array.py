@@ -92,6 +92,14 @@ class WheelArray:
     def __len__(self) -> int:
         return len(self.wheels)
 
+    def __eq__(self, other: object) -> bool:
+        if not isinstance(other, WheelArray):
+            return NotImplemented
+        return self.wheels == other.wheels
+
+    def __hash__(self) -> int:
+        return hash(self.wheels)
+
     def problem(self, inertia_kgm2: npt.ArrayLike) -> str | None:
         """Why this array cannot fly a spacecraft of ``inertia_kgm2`` (None: it can)."""
         if len(set(self.names)) != len(self.names):

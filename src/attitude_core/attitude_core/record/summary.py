@@ -24,6 +24,7 @@ from attitude_core.fsw.guidance.profile_limits import GuidanceLimits, time_bound
 from attitude_core.models.mrp import principal_angle, relative
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg, path_length_mrp
 from attitude_core.record.trajectory import RunResult
+from attitude_core.record.wheel_figures import wheel_figures, wheel_time_bound_s
 
 __all__ = ["Summary", "SUMMARY_KEYS", "summarize"]
 
@@ -61,6 +62,10 @@ class Summary:
     time_ratio_to_bound: float | None
     peak_torque_to_bound: float | None
     peak_rate_to_bound: float | None
+    # With wheels.* (None otherwise): record/wheel_figures.py
+    peak_wheel_speed_frac: float | None
+    peak_wheel_torque_frac: float | None
+    momentum_error_nms: float | None
     route_rotation_deg: float | None  # the planner's first global route
     planner_step_us_median: float
     planner_step_us_p99: float
@@ -172,6 +177,7 @@ def summarize(run: RunResult) -> Summary:
         peak_rate_rad_s=float(np.max(np.linalg.norm(run.omega_b, axis=1))),
         peak_torque_nm=float(np.max(np.linalg.norm(run.torque_b, axis=1))),
         **limits,
+        **wheel_figures(run),
         route_rotation_deg=(
             None if not np.isfinite(run.route_rotation_deg) else float(run.route_rotation_deg)
         ),
@@ -270,6 +276,8 @@ def _against_limits(run: RunResult, t_reach: float | None) -> dict[str, Any]:
         run.scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
     )
     bound = time_bound_s(flown, act.max_rate_rad_s, limits.alpha_max_rad_s2)
+    if run.scenario.wheels is not None:  # the momentum-limited bound
+        bound = wheel_time_bound_s(run, flown)
     ratio = None if bound is None or t_reach is None or bound <= 0.0 else t_reach / bound
     torque_ratio = None
     if act.max_torque_nm is not None:

@@ -15,7 +15,7 @@ import numpy as np
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.faults import Fault
 
-__all__ = ["RunResult", "Estimates"]
+__all__ = ["RunResult", "Estimates", "WheelRecord"]
 
 
 @dataclass
@@ -39,6 +39,7 @@ class RunResult:
     # state; the loop was fed these estimates (NaN rows before the filter's first fix).
     estimate: Estimates | None = None
     faults: list[Fault] = field(default_factory=list)  # in order of start
+    wheels: WheelRecord | None = None  # with wheels.* (None otherwise)
 
 
 @dataclass
@@ -49,3 +50,14 @@ class Estimates:
     omega_b: np.ndarray  # bias-corrected rate, body axes, rad/s
     attitude_3sigma_deg: np.ndarray  # the filter's 3 sqrt(trace P_att), deg
     nees: np.ndarray  # normalised estimation error squared, 6 states (NaN: no truth)
+
+
+@dataclass
+class WheelRecord:
+    """The wheels at each row of a :class:`RunResult` (``N + 1`` rows, one column per
+    wheel of ``scenario.wheels``); ``torque_b`` of the run is the body torque they made."""
+
+    speed_rad_s: np.ndarray  # Omega_i relative to the body at t_k
+    commanded_nm: np.ndarray  # motor torque commanded over [t_k, t_k+1)
+    applied_nm: np.ndarray  # motor torque applied over [t_k, t_k+1)
+    external_b: np.ndarray  # (N + 1, 3) external torque over [t_k, t_k+1), body axes

@@ -30,6 +30,7 @@ from attitude_core.config import node_graph as graph
 from attitude_core.config.node_graph import NodeSpec
 from attitude_core.config.scenario import Scenario, ScenarioError
 from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.config.scenario_wheels import refuse_on_nodes
 from attitude_core.contract.faults import FaultKind
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, IMU, STAR_TRACKER
@@ -175,6 +176,7 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
     }
     wall0 = time.monotonic()
     scenario = load_scenario(req.scenario_path)
+    refuse_on_nodes(scenario, req.scenario_path)
     if req.external_estimate and scenario.sensors is None:
         raise ScenarioError(
             req.scenario_path,

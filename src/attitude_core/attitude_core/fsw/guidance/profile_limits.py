@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.fsw.guidance.wheel_envelope import WheelEnvelope
+
 __all__ = ["TORQUE_USE", "GYRO_SHARE", "RATE_USE", "GuidanceLimits", "time_bound_s"]
 
 TORQUE_USE = 0.85
@@ -65,6 +67,23 @@ class GuidanceLimits:
         gyro = 0.0 if rate is None else half_spread * rate * rate
         accel = TORQUE_USE * (tau - gyro) / j_max
         return cls(rate, accel, tau / j_max)
+
+    @classmethod
+    def from_wheels(cls, inertia_kgm2: npt.ArrayLike, envelope: WheelEnvelope) -> GuidanceLimits:
+        """The bounds of a slew with a wheel array (``envelope`` about its axis,
+        :func:`attitude_core.fsw.guidance.wheel_envelope.wheel_envelope`): the rate the
+        wheels' momentum allows (lowered as in :meth:`from_actuators` so the gyroscopic
+        torque takes at most :data:`GYRO_SHARE` of the array's torque), and
+        :data:`TORQUE_USE` of the rest of the torque along the slew."""
+        j = np.linalg.eigvalsh(np.asarray(inertia_kgm2, dtype=float).reshape(3, 3))
+        half_spread = 0.5 * (float(j[-1]) - float(j[0]))
+        tau = envelope.torque_nm
+        alpha = envelope.accel_rad_s2
+        rate = envelope.rate_rad_s
+        if half_spread > 0.0:
+            rate = min(rate, math.sqrt(GYRO_SHARE * tau / half_spread))
+        gyro = half_spread * rate * rate
+        return cls(rate, TORQUE_USE * alpha * (tau - gyro) / tau, alpha)
 
 
 def time_bound_s(

@@ -32,7 +32,13 @@ import numpy.typing as npt
 
 from attitude_core.models.wheel_array import WheelArray
 
-__all__ = ["MOMENTUM_USE", "WheelEnvelope", "wheel_envelope"]
+__all__ = [
+    "MOMENTUM_USE",
+    "WheelEnvelope",
+    "momentum_rate_limit",
+    "sphere_directions",
+    "wheel_envelope",
+]
 
 MOMENTUM_USE = 0.8
 """Share of the rate the wheels' speed limits allow that the profile may take (the rest
@@ -40,6 +46,9 @@ is the controller's, for its corrections and a path that is not an eigenaxis tur
 
 PHI_SAMPLES_PER_RAD = 12.0
 """Samples of the stored momentum's turn per radian of slew (at least two)."""
+
+SPHERE_AXES = 256
+"""Axes over the sphere the rate cap holds about, besides the slew's eigenaxis."""
 
 
 @dataclass(frozen=True)
@@ -54,12 +63,60 @@ class WheelEnvelope:
 
 
 def _turned(
-    h_b: npt.NDArray[np.float64], e: npt.NDArray[np.float64], phi: float
+    h_b: npt.NDArray[np.float64], e: npt.NDArray[np.float64], phi: npt.NDArray[np.float64]
 ) -> npt.NDArray[np.float64]:
-    """``h_b`` seen from a body turned by ``phi`` about the unit ``e`` (frame rotation)."""
-    c, s = math.cos(phi), math.sin(phi)
+    """``h_b`` seen from a body turned by each ``phi`` (P,) about the unit ``e``
+    (frame rotation): (P, 3)."""
+    c, s = np.cos(phi)[:, None], np.sin(phi)[:, None]
     turned: npt.NDArray[np.float64] = c * h_b + (1.0 - c) * (e @ h_b) * e - s * np.cross(e, h_b)
     return turned
+
+
+def sphere_directions(count: int) -> npt.NDArray[np.float64]:
+    """``count`` unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    r = np.sqrt(1.0 - z * z)
+    phi = math.pi * (3.0 - math.sqrt(5.0)) * k
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+
+
+def momentum_rate_limit(
+    array: WheelArray,
+    inertia_kgm2: npt.ArrayLike,
+    turn_axis_b: npt.ArrayLike,
+    rotation_rad: float,
+    rate_axes_b: npt.ArrayLike,
+    speeds_rad_s: npt.ArrayLike,
+    usable: npt.ArrayLike,
+) -> npt.NDArray[np.float64]:
+    """Per unit axis of ``rate_axes_b`` (K, 3): the largest rate about it that keeps
+    every usable wheel within its speed limit at every turn ``phi`` of the body about
+    ``turn_axis_b`` up to ``rotation_rad`` (module docstring), before
+    :data:`MOMENTUM_USE`; 0 for every axis when the stored momentum alone passes a limit
+    on the way (the slew cannot be flown without one)."""
+    j = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
+    e = np.atleast_2d(np.asarray(rate_axes_b, dtype=float))
+    use = np.asarray(usable, dtype=bool)
+    speeds = np.asarray(speeds_rad_s, dtype=float)
+    js, top, now = array.spin_inertia[use], array.max_speed[use], speeds[use]
+    pinv = np.linalg.pinv(array.axes[:, use])
+    stored = array.wheel_momentum_b(speeds)
+    n_phi = max(2, math.ceil(PHI_SAMPLES_PER_RAD * abs(rotation_rad)) + 1)
+    phi = np.linspace(0.0, rotation_rad, n_phi)
+    turn = np.asarray(turn_axis_b, dtype=float)
+    base = now + ((_turned(stored, turn, phi) - stored) @ pinv.T) / js  # (P, n)
+    if np.any(np.abs(base) > top):
+        return np.zeros(len(e))
+    per_rate = (e @ j.T) @ pinv.T / js  # dOmega per unit rate (K, n)
+    # Omega = base - per_rate omega within [-top, top], for omega >= 0: the room left
+    room_down = (base + top).min(axis=0)  # for a wheel slowed (per_rate > 0)
+    room_up = (top - base).min(axis=0)  # for a wheel sped up (per_rate < 0)
+    with np.errstate(divide="ignore"):
+        up = np.where(per_rate > 0.0, room_down / per_rate, np.inf)
+        down = np.where(per_rate < 0.0, room_up / -per_rate, np.inf)
+    limit: npt.NDArray[np.float64] = np.minimum(up, down).min(axis=1)
+    return limit
 
 
 def wheel_envelope(
@@ -71,34 +128,24 @@ def wheel_envelope(
     usable: npt.ArrayLike,
 ) -> WheelEnvelope:
     """The envelope of a rest-to-rest slew of ``rotation_rad`` about the unit ``axis_b``
-    from the wheels' ``speeds_rad_s``, the body at rest."""
+    from the wheels' ``speeds_rad_s``, the body at rest. The stored momentum turns
+    about ``axis_b``; the rate is the smallest about any axis (a path around the cones
+    turns about other axes than the eigenaxis): about ``axis_b``, each wheel's worst
+    axis (``J p_i``, ``p_i`` its row of ``G^+``), and :data:`SPHERE_AXES` more."""
     j = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
     e = np.asarray(axis_b, dtype=float)
     je = j @ e
     size = float(np.linalg.norm(je))
-    speeds = np.asarray(speeds_rad_s, dtype=float)
     use = np.asarray(usable, dtype=bool)
     lower = np.where(use, -array.max_torque, 0.0)
     upper = np.where(use, array.max_torque, 0.0)
     torque = array.torque_along(je / size, lower, upper)
-
-    g_use = array.axes[:, use]
-    js, top, now = array.spin_inertia[use], array.max_speed[use], speeds[use]
-    pinv = np.linalg.pinv(g_use)
-    stored = array.wheel_momentum_b(speeds)
-    per_rate = (pinv @ je) / js  # dOmega per unit of body rate
-    rate = math.inf
-    n_phi = max(2, math.ceil(PHI_SAMPLES_PER_RAD * abs(rotation_rad)) + 1)
-    for phi in np.linspace(0.0, rotation_rad, n_phi):
-        base = now + (pinv @ (_turned(stored, e, float(phi)) - stored)) / js
-        if np.any(np.abs(base) > top):
-            rate = 0.0  # the stored momentum alone passes a limit on the way
-            break
-        # Omega_i = base_i - per_rate_i omega within [-top_i, top_i]
-        for b, k, t in zip(base, per_rate, top, strict=True):
-            if k > 0.0:
-                rate = min(rate, (b + t) / k)
-            elif k < 0.0:
-                rate = min(rate, (t - b) / -k)
-    rate = MOMENTUM_USE * rate
+    # Each wheel's speed is linear in the body momentum through a row p_i of G^+: the
+    # rate about e is least where J e is along p_i, so those axes are exact worst cases.
+    rows = np.linalg.pinv(array.axes[:, use])
+    worst = rows @ j
+    worst /= np.linalg.norm(worst, axis=1, keepdims=True)
+    axes = np.vstack([e, worst, -worst, sphere_directions(SPHERE_AXES)])
+    rates = momentum_rate_limit(array, j, e, rotation_rad, axes, speeds_rad_s, use)
+    rate = MOMENTUM_USE * float(np.min(rates))
     return WheelEnvelope(rate, torque / size, rate * size, torque)
