@@ -38,7 +38,9 @@ gives it:
    tracker's noise factor, its rate, the gyro's noise and, per axis, its bias magnitude
    and sign;
 8. the link (``link``): the run's ``link.seed``, then per key given the latency, the
-   jitter and the loss rate, then the outage count and each outage's duration and start.
+   jitter and the loss rate, then the outage count and each outage's duration and start;
+9. the wheels (``wheels``): per base wheel its initial speed, then with a failure share
+   a uniform draw deciding the failure, the failed wheel and its time.
 
 A value range whose ends are equal gives its end and draws nothing (a count range is
 always drawn). An optional dispersion that the SPEC does not give draws nothing, and new
@@ -179,7 +181,27 @@ def _candidate(
         _draw_sensors(spec, base, rng, flat)
     if spec.link:
         _draw_link(spec, rng, flat)
+    if spec.wheels:
+        _draw_wheels(spec, base, rng, flat)
     return flat
+
+
+def _draw_wheels(
+    spec: CampaignSpec, base: dict[str, Any], rng: np.random.Generator, flat: dict[str, Any]
+) -> None:
+    """Step 9 of the module docstring, into ``flat``: the wheels' biases and a failure."""
+    names = list(base["wheels.names"])
+    if spec.wheel_speed_rpm is not None:
+        for name in names:
+            flat[f"wheels.{name}.initial_speed_rpm"] = _uniform(
+                rng, spec.wheel_speed_rpm.lo, spec.wheel_speed_rpm.hi
+            )
+    if spec.wheel_failure_share is not None and spec.wheel_fails_at_s is not None:
+        fails = float(rng.random()) < spec.wheel_failure_share
+        which = int(rng.integers(len(names)))
+        when = _uniform(rng, spec.wheel_fails_at_s.lo, spec.wheel_fails_at_s.hi)
+        if fails:
+            flat[f"wheels.{names[which]}.fails_at_s"] = when
 
 
 def _draw_link(spec: CampaignSpec, rng: np.random.Generator, flat: dict[str, Any]) -> None:

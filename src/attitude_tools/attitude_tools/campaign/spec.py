@@ -26,6 +26,9 @@ A SPEC is YAML with one top-level ``campaign`` mapping (see docs/campaigns.md)::
           jitter_s: [0.0, 0.05]
           drop_rate: [0.0, 0.1]
           outages: {count: [0, 2], start_s: [0.0, 90.0], duration_s: [0.0, 3.0]}
+        wheels:                                # optional; the base must declare wheels.*
+          initial_speed_rpm: [-2000.0, 2000.0] # each wheel's bias, uniform
+          failure: {share: 0.25, fails_at_s: [0.0, 60.0]}  # one wheel fails in a share
         sensors:                               # optional; the base must declare sensors.*
           star_tracker_noise_scale: [0.5, 4.0] # times the base's noise_arcsec (its shape kept)
           star_tracker_rate_hz: [1.0, 10.0]
@@ -50,6 +53,10 @@ per key given, a latency, a jitter and a loss rate drawn uniformly, and ``count`
 outages, each starting uniformly in ``start_s`` (s) for ``duration_s`` (s); the most
 latency plus jitter must stay below the base's ``fdir.state_timeout_s``.
 
+``wheels`` needs a base scenario with ``wheels.*``: per key given, each wheel's initial
+speed (rpm, uniform; within every wheel's speed limit), and in a ``share`` of the runs
+one wheel (uniform among them) failing at a time uniform in ``fails_at_s``.
+
 ``sensors`` needs a base scenario with ``sensors.*``: each run gets its own
 ``sensors.seed`` and, per key given, the star tracker's noise (the base's 3-vector times
 one uniform factor), its rate (Hz), the gyro's white noise (rad/s per sample) and its
@@ -72,6 +79,7 @@ from attitude_core.config.scenario import Scenario, ScenarioError
 from attitude_core.config.scenario_flatten import flatten_parameters
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.models.ephemeris import parse_epoch_utc
+from attitude_core.models.wheel_array import RPM
 from attitude_core.yamlio import load_strict
 
 __all__ = [
@@ -147,6 +155,11 @@ class CampaignSpec:
     outage_count: tuple[int, int] | None = None
     outage_start_s: Range | None = None
     outage_duration_s: Range | None = None
+    # The wheels' biases and failure drawn per run (False: the base's wheels as they are).
+    wheels: bool = False
+    wheel_speed_rpm: Range | None = None
+    wheel_failure_share: float | None = None
+    wheel_fails_at_s: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
@@ -182,6 +195,7 @@ _DISPERSIONS = {
     "sky",
     "sensors",
     "link",
+    "wheels",
 }
 _SKY = {"epoch_utc", "raan_deg", "true_anomaly_deg"}
 _SENSORS = {
@@ -192,6 +206,8 @@ _SENSORS = {
 }
 _LINK = {"state_latency_s", "jitter_s", "drop_rate", "outages"}
 _OUTAGES = {"count", "start_s", "duration_s"}
+_WHEELS = {"initial_speed_rpm", "failure"}
+_FAILURE = {"share", "fails_at_s"}
 # Keys of an instrument that name the base scenario's bright objects.
 _PER_OBJECT = ("exclusion_deg", "avoids")
 
@@ -377,6 +393,7 @@ def load_spec(path: str | Path) -> CampaignSpec:
             positive = field in ("star_tracker_noise_scale", "star_tracker_rate_hz")
             sensor_ranges[field] = r.pair(value, f"{key}.sensors.{field}", 0.0, positive)
     link = _read_link(r, d.get("link"), f"{key}.link", base_scenario)
+    link.update(_read_wheels(r, d.get("wheels"), f"{key}.wheels", base_scenario, str(base)))
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)
@@ -447,6 +464,37 @@ def _read_link(r: _Reader, value: Any, key: str, base: Scenario) -> dict[str, An
         out["outage_start_s"] = r.pair(outages["start_s"], f"{key}.outages.start_s", 0.0)
         duration = r.pair(outages["duration_s"], f"{key}.outages.duration_s", 0.0)
         out["outage_duration_s"] = duration
+    return out
+
+
+def _read_wheels(
+    r: _Reader, value: Any, key: str, base: Scenario, base_name: str
+) -> dict[str, Any]:
+    """The ``wheels`` dispersions as :class:`CampaignSpec` fields (none: ``{}``)."""
+    if value is None:
+        return {}
+    given = r.mapping(value, key, _WHEELS)
+    if base.wheels is None:
+        raise r.fail(key, f"the base scenario {base_name} declares no wheels (wheels.*)")
+    out: dict[str, Any] = {"wheels": True}
+    if given.get("initial_speed_rpm") is not None:
+        speeds = r.pair(given["initial_speed_rpm"], f"{key}.initial_speed_rpm", -math.inf)
+        top = float(min(base.wheels.max_speed)) / RPM
+        if max(abs(speeds.lo), abs(speeds.hi)) > top:
+            raise r.fail(
+                f"{key}.initial_speed_rpm",
+                f"must stay within every wheel's max_speed_rpm ({top:g})",
+            )
+        out["wheel_speed_rpm"] = speeds
+    if given.get("failure") is not None:
+        failure = r.mapping(given["failure"], f"{key}.failure", _FAILURE)
+        if any(failure.get(k) is None for k in _FAILURE):
+            raise r.fail(f"{key}.failure", f"give {sorted(_FAILURE)}")
+        share = r.number(failure["share"], f"{key}.failure.share", 0.0)
+        if share > 1.0:
+            raise r.fail(f"{key}.failure.share", f"must be <= 1, got {share:g}")
+        out["wheel_failure_share"] = share
+        out["wheel_fails_at_s"] = r.pair(failure["fails_at_s"], f"{key}.failure.fails_at_s", 0.0)
     return out
 
 

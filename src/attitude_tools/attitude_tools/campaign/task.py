@@ -109,6 +109,18 @@ def _fault_columns(summary: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _wheel_columns(sc: Any, summary: dict[str, Any]) -> dict[str, Any]:
+    """A wheel run's array and figures (empty and NaN without wheels)."""
+    array = sc.wheels
+    failed = [] if array is None else [w.name for w in array.wheels if w.fails_at_s is not None]
+    return {
+        "failed_wheel": failed[0] if failed else "",
+        "peak_wheel_speed_frac": _or_nan(summary["peak_wheel_speed_frac"]),
+        "peak_wheel_torque_frac": _or_nan(summary["peak_wheel_torque_frac"]),
+        "momentum_error_nms": _or_nan(summary["momentum_error_nms"]),
+    }
+
+
 def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
     """The results row of run ``i`` flown by ``variant``."""
     t0 = time.perf_counter()
@@ -162,6 +174,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "metrics_s": t3 - t2,
         **_sensor_columns(sc, summary),
         **_fault_columns(summary),
+        **_wheel_columns(sc, summary),
     }
     row["task_s"] = time.perf_counter() - t0
     return row
