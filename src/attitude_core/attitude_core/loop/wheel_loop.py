@@ -70,7 +70,9 @@ def run_wheel_loop(scenario: Scenario) -> RunResult:
         u = allocate(array, tau, lower, upper).motor_torque_nm
         commanded[k] = u
         if k == n:  # the last row: what would be commanded, nothing flown
-            applied[k], torque[k] = plant.applied(u, t), array.body_torque_b(plant.applied(u, t))
+            applied[k] = plant.applied(u, t)
+            torque[k] = array.body_torque_b(applied[k])
+            external[k] = external[k - 1] if k > 0 else 0.0  # held, as the torque rows
             break
         step = plant.step(u, t, dt)
         applied[k], torque[k], external[k] = (
@@ -82,7 +84,6 @@ def run_wheel_loop(scenario: Scenario) -> RunResult:
         if health.changed:  # re-budget the slew on the wheels left
             env = slew_envelope(scenario, plant.sigma_bn, plant.speeds, health.usable)
             guidance.limits = GuidanceLimits.from_wheels(scenario.inertia_kgm2, env)
-    external[n] = external[n - 1] if n > 0 else external[n]
     return RunResult(
         scenario,
         dt * np.arange(rows),

@@ -127,16 +127,19 @@ class WheelArray:
         return hub
 
     def wheel_momentum_b(self, speeds_rad_s: npt.ArrayLike) -> _Floats:
-        """``sum_i g_i Js_i Omega_i`` (N m s, body axes)."""
-        h: _Floats = self.axes @ (self.spin_inertia * np.asarray(speeds_rad_s, dtype=float))
+        """``sum_i g_i Js_i Omega_i`` (N m s, body axes); speeds ``(N,)`` or one row per
+        time ``(K, N)`` giving ``(K, 3)``."""
+        h: _Floats = (self.spin_inertia * np.asarray(speeds_rad_s, dtype=float)) @ self.axes.T
         return h
 
     def system_momentum_b(
         self, inertia_kgm2: npt.ArrayLike, omega_b: npt.ArrayLike, speeds_rad_s: npt.ArrayLike
     ) -> _Floats:
-        """``H_B = J omega + sum_i g_i Js_i Omega_i`` (N m s, body axes)."""
+        """``H_B = J omega + sum_i g_i Js_i Omega_i`` (N m s, body axes); one state, or
+        one row per time (``omega_b`` ``(K, 3)``, speeds ``(K, N)``)."""
         j = np.asarray(inertia_kgm2, dtype=float).reshape(3, 3)
-        h: _Floats = j @ np.asarray(omega_b, dtype=float) + self.wheel_momentum_b(speeds_rad_s)
+        omega = np.asarray(omega_b, dtype=float)
+        h: _Floats = omega @ j.T + self.wheel_momentum_b(speeds_rad_s)
         return h
 
     def body_torque_b(self, motor_torque_nm: npt.ArrayLike) -> _Floats:

@@ -272,12 +272,13 @@ def _against_limits(run: RunResult, t_reach: float | None) -> dict[str, Any]:
     end = len(run.t) if t_reach is None else int(np.searchsorted(run.t, t_reach)) + 1
     speed = np.linalg.norm(run.omega_b[:end], axis=1)
     flown = float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(run.t[:end])))
-    limits = GuidanceLimits.from_actuators(
-        run.scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
-    )
-    bound = time_bound_s(flown, act.max_rate_rad_s, limits.alpha_max_rad_s2)
     if run.scenario.wheels is not None:  # the momentum-limited bound
         bound = wheel_time_bound_s(run, flown)
+    else:
+        limits = GuidanceLimits.from_actuators(
+            run.scenario.inertia_kgm2, act.max_torque_nm, act.max_rate_rad_s
+        )
+        bound = time_bound_s(flown, act.max_rate_rad_s, limits.alpha_max_rad_s2)
     ratio = None if bound is None or t_reach is None or bound <= 0.0 else t_reach / bound
     torque_ratio = None
     if act.max_torque_nm is not None:

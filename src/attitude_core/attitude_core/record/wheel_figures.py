@@ -35,11 +35,9 @@ def inertial_momentum(run: RunResult) -> np.ndarray:
     sc, wheels = run.scenario, run.wheels
     if sc.wheels is None or wheels is None:
         raise ValueError("inertial_momentum: a run without wheels")
-    h_b = sc.inertia_kgm2 @ run.omega_b.T + sc.wheels.axes @ (
-        sc.wheels.spin_inertia[:, None] * wheels.speed_rad_s.T
-    )
+    h_b = sc.wheels.system_momentum_b(sc.inertia_kgm2, run.omega_b, wheels.speed_rad_s)
     dcm = dcm_from_mrp(run.sigma_bn)  # (N + 1, 3, 3) C_BN
-    h_n: np.ndarray = np.einsum("kji,jk->ki", dcm, h_b)
+    h_n: np.ndarray = np.einsum("kji,kj->ki", dcm, h_b)
     return h_n
 
 
