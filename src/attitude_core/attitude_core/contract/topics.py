@@ -22,6 +22,8 @@ topic                               type                             publisher
 ``/diagnostics``                    diagnostic_msgs/msg/DiagnosticArray  planner; every node
 ``/controller/torque``              geometry_msgs/msg/WrenchStamped  controller
 ``/spacecraft/applied_torque``      geometry_msgs/msg/WrenchStamped  simulator
+``/spacecraft/wheel_states``        sensor_msgs/msg/JointState       simulator with wheels (or HIL)
+``/controller/wheel_torque``        sensor_msgs/msg/JointState       controller with wheels
 ==================================  ===============================  ==========================
 
 Every stamped message of one step carries the stamp of the state it answers.
@@ -42,6 +44,20 @@ measurements it filtered. Message conventions of the sensors:
   body in the inertial frame, as ``/spacecraft/attitude``); the rotation block of
   ``covariance`` (rows and columns 3-5, rad^2, about body x, y, z) the tracker's noise;
   the position is unused (zero, with zero covariance).
+
+With a reaction wheel array (``wheels.*``) the controller still publishes the body
+torque it wants on ``/controller/torque`` (for the record) and the plant takes the
+motor torques of ``/controller/wheel_torque`` instead. Both wheel topics are
+``sensor_msgs/JointState``, frame ``body``, read by wheel name (any order; every
+declared wheel present, each once), ``position`` empty:
+
+* ``/spacecraft/wheel_states``, stamped like the state, every step: ``velocity`` the
+  wheel speeds ``Omega_i`` relative to the body (rad/s, positive about the wheel's spin
+  axis); ``effort`` the motor torque (N m, on the wheel about its spin axis; the body
+  gets its reaction ``-g_i u_i``) each wheel applied over the step that ended at the
+  stamp (a zero-order hold: what a bench samples at that instant), zero at the first.
+* ``/controller/wheel_torque``, the stamp of the state it answers: ``effort`` the
+  commanded motor torque of each wheel (N m); ``velocity`` empty.
 """
 
 from __future__ import annotations
@@ -62,6 +78,8 @@ IMU = "/spacecraft/imu"  # the gyro (with sensors)
 STAR_TRACKER = "/spacecraft/star_tracker"  # the star tracker (with sensors)
 TRUTH_ATTITUDE = "/spacecraft/truth/attitude"  # the true state (with sensors), record only
 TRUTH_ANGULAR_VELOCITY = "/spacecraft/truth/angular_velocity"
+WHEEL_STATES = "/spacecraft/wheel_states"  # the wheels' speeds and applied torques
+WHEEL_TORQUE = "/controller/wheel_torque"  # the commanded motor torques
 
 INERTIAL_FRAME = "inertial"  # N
 BODY_FRAME = "body"  # B
@@ -73,6 +91,7 @@ HISTORY_DEPTH = 200
 STATE_TOPICS = (ATTITUDE, ANGULAR_VELOCITY)  # what a plant (simulator or bridge) publishes
 SENSOR_TOPICS = (IMU, STAR_TRACKER)  # ... or, with sensors, what it measures
 TRUTH_TOPICS = (TRUTH_ATTITUDE, TRUTH_ANGULAR_VELOCITY)
+WHEEL_TOPICS = (WHEEL_STATES, WHEEL_TORQUE)  # with a wheel array
 
 
 NS_PER_S = 1_000_000_000
@@ -114,6 +133,8 @@ TOPICS = (
     Topic(STAR_TRACKER, "geometry_msgs/msg/PoseWithCovarianceStamped", True, frame=INERTIAL_FRAME),
     Topic(TRUTH_ATTITUDE, "geometry_msgs/msg/QuaternionStamped", True, frame=INERTIAL_FRAME),
     Topic(TRUTH_ANGULAR_VELOCITY, "geometry_msgs/msg/Vector3Stamped", True, frame=BODY_FRAME),
+    Topic(WHEEL_STATES, "sensor_msgs/msg/JointState", True, frame=BODY_FRAME),
+    Topic(WHEEL_TORQUE, "sensor_msgs/msg/JointState", True, frame=BODY_FRAME),
 )
 
 
