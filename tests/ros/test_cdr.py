@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from attitude_ros.cdr import FLOATS, CdrError, stamped
+from attitude_ros.cdr import FLOATS, CdrError, joint_state, stamped
 
 floats = st.floats(allow_nan=True, allow_infinity=True, width=64)
 frames = st.text(st.characters(codec="utf-8", exclude_characters="\x00"), max_size=24)
@@ -82,3 +82,38 @@ def test_malformed_bytes_are_refused_with_a_reason():
         for data in bad:
             with pytest.raises(CdrError, match=reason):
                 stamped(data, 3)
+
+
+names = st.lists(st.text(st.characters(codec="utf-8", exclude_characters="\x00"), max_size=9))
+
+
+@settings(max_examples=300, deadline=None)
+@given(secs, nanosecs, frames, names, st.data())
+def test_joint_state_reads_what_rclpy_serializes(sec, nanosec, frame, joint_names, data):
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+
+    msg = JointState()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+    msg.header.frame_id = frame
+    msg.name = joint_names
+    arrays = [data.draw(st.lists(floats, max_size=5)) for _ in range(3)]
+    msg.position, msg.velocity, msg.effort = arrays
+    got_sec, got_nanosec, got_frame, got = joint_state(serialize_message(msg))
+    assert (got_sec, got_nanosec, got_frame) == (sec, nanosec, frame)
+    assert got.name == tuple(joint_names)
+    for read_back, sent in zip((got.position, got.velocity, got.effort), arrays, strict=True):
+        assert same(read_back, sent)
+
+
+def test_joint_state_refuses_truncated_bytes():
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+
+    msg = JointState(name=["rw1", "rw2"], velocity=[1.0, 2.0], effort=[0.1, 0.2])
+    msg.header.frame_id = "body"
+    raw = serialize_message(msg)
+    assert joint_state(raw)[3].effort == (0.1, 0.2)
+    for cut in (84, 60, 30):  # inside effort, inside velocity, inside the names
+        with pytest.raises(CdrError):
+            joint_state(raw[:cut])

@@ -3,7 +3,6 @@ the wheels' columns and figures, read back and checked against the physics; the 
 refuses the scenario (for now) before anything is written or started."""
 
 import json
-import os
 import subprocess
 import sys
 from pathlib import Path
@@ -12,7 +11,6 @@ import numpy as np
 import pandas as pd
 
 from attitude_core.config.scenario_loader import load_scenario
-from attitude_tools.run import cli as run_cli
 
 ROOT = Path(__file__).resolve().parents[2]
 PYRAMID = ROOT / "scenarios" / "case1_rw_pyramid.yaml"
@@ -53,16 +51,3 @@ def test_offline_writes_each_wheel_and_the_system_momentum(tmp_path):
     h = table[[f"h_system_n_{i}_nms" for i in (1, 2, 3)]].to_numpy()
     peak_wheel_h = np.max(np.abs(speeds) * array.spin_inertia)
     assert np.max(np.linalg.norm(h - h[0], axis=1)) < 0.01 * peak_wheel_h
-
-
-def test_attitude_run_refuses_wheels_before_anything(tmp_path, capsys, monkeypatch):
-    def must_not_run(*args, **kwargs):
-        raise AssertionError("attitude-run went past the scenario check")
-
-    monkeypatch.setattr(run_cli, "ros_environment", must_not_run)
-    monkeypatch.setattr(run_cli.NodeGraph, "start", must_not_run)
-    code = run_cli.main([str(PYRAMID), "--out", str(tmp_path / "out")])
-    err = capsys.readouterr().err
-    assert code == 2
-    assert "wheels.names: the ROS nodes do not fly a wheel array" in err, err
-    assert os.listdir(tmp_path) == []

@@ -16,6 +16,12 @@ controller answers each tick itself, stamped with the tick, from its prediction 
 body (:mod:`attitude_core.fsw.fdir.outage_control`). Deactivated in real time, it sends
 a zero torque at once, so a plant that holds the last command holds a zero.
 
+With a reaction wheel array (``wheels.*``) it also waits for ``/spacecraft/wheel_states``
+of the stamp, turns the eq. 11 torque into motor torques on the wheels still answering
+(:class:`attitude_core.fsw.control.wheel_control.WheelControl`: minimum-norm allocation
+with saturation and redistribution) and publishes them on ``/controller/wheel_torque``,
+the plant's command; ``/controller/torque`` is then the body torque they make.
+
 ``fault.drop_torque_fraction`` (test mode, default 0) drops that fraction of the torque
 messages (seeded by ``fault.seed``), to test that a lossy link neither deadlocks a
 lockstep run nor breaks a constraint.
@@ -30,6 +36,7 @@ from geometry_msgs.msg import WrenchStamped
 
 from attitude_core.config import node_graph
 from attitude_core.fsw.control.pd import PdGains, commanded_torque
+from attitude_core.fsw.control.wheel_control import WheelControl
 from attitude_core.fsw.fdir.outage_control import OutageControl
 from attitude_core.fsw.fdir.state_watchdog import FdirMode
 from attitude_core.runtime.stamp_gate import StampGate
@@ -39,6 +46,7 @@ from attitude_ros import convert as cv
 from attitude_ros.convert import log_faults, set_vector3
 from attitude_ros.endpoints import message, publisher
 from attitude_ros.intake import (
+    Convert,
     attitude_value,
     rate_value,
     subscribe_paired,
@@ -50,6 +58,7 @@ from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
+from attitude_ros.wheel_msgs import WheelOrder, fill_joint_state
 
 
 class PdControllerNode(StackNode):
@@ -64,10 +73,26 @@ class PdControllerNode(StackNode):
         self.last_stamp: int | None = None  # stamp of the last torque, and the torque
         self.last_torque: WrenchStamped | None = None
         self.first_stamp: int | None = None  # t = 0 of the watchdog's fault times
-        # sigma_BN, omega_B, sigma_RN, omega_t of one stamp
-        self.intake = StampPairing(4, StampGate(self.scenario.sim_time_s))
+        array = self.scenario.wheels
+        inputs: list[tuple[str, Convert]] = [
+            (c.ATTITUDE, attitude_value),
+            (c.ANGULAR_VELOCITY, rate_value),
+            (c.TARGET_MRP, target_mrp_value),
+            (c.TARGET_RATE, target_rate_value),
+        ]
+        self.wheels: WheelControl | None = None
+        if array is not None:  # ... and the wheel state
+            self.wheels, self.wheel_names = WheelControl(array), array.names
+            inputs.append((c.WHEEL_STATES, WheelOrder(array.names).speeds_and_effort))
+            self.speeds = array.initial_speed.copy()  # the last measured
+            self.pub_wheels = publisher(self, c.WHEEL_TORQUE)
+            self.out_wheels = message(c.WHEEL_TORQUE)  # refilled for each stamp
+            self.last_wheels = message(c.WHEEL_TORQUE)  # the last sent (a re-send)
+        # sigma_BN, omega_B, sigma_RN, omega_t (and the wheel state) of one stamp
+        self.intake = StampPairing(len(inputs), StampGate(self.scenario.sim_time_s))
+        wired = node_graph.with_wheels(self.spec, array is not None)
         self.guard = RunGuard(
-            self, self.spec, self.scenario, self.stop, stamp_ns=lambda: self.last_stamp or 0
+            self, wired, self.scenario, self.stop, stamp_ns=lambda: self.last_stamp or 0
         )
         self.pub_torque = publisher(self, c.TORQUE)
         self.out_torque = message(c.TORQUE)  # refilled for each stamp
@@ -79,14 +104,9 @@ class PdControllerNode(StackNode):
             self,
             self.guard,
             self.intake,
-            (
-                (c.ATTITUDE, attitude_value),
-                (c.ANGULAR_VELOCITY, rate_value),
-                (c.TARGET_MRP, target_mrp_value),
-                (c.TARGET_RATE, target_rate_value),
-            ),
+            inputs,
             self.answer,
-            lambda: self.publish(self.last_torque),  # a lockstep re-send: the same torque
+            lambda: self.publish(self.last_torque, resend=True),  # lockstep: the same again
         )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': Kp = {self.scenario.kp_over_j} J, "
@@ -107,7 +127,7 @@ class PdControllerNode(StackNode):
         self.outage = self.new_outage(self.first_stamp)
 
     def answer(self, stamp: int, stamp_msg, inputs) -> None:
-        sigma_bn, omega_b, sigma_t, omega_t = inputs
+        sigma_bn, omega_b, sigma_t, omega_t = inputs[:4]
         limit = self.scenario.actuators.max_torque_nm
         t = self.clock.state_time_ns(stamp)
         self.first_stamp = stamp if self.first_stamp is None else self.first_stamp
@@ -115,6 +135,11 @@ class PdControllerNode(StackNode):
         log_faults(self.get_logger(), ended, "states back: ")
         u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
         u = u if self.active and not self.outage.safe else 0.0 * u
+        if self.wheels is not None:  # the motor torques, and the body torque they make
+            self.speeds, effort = inputs[4]
+            wheel = self.wheels.command(u, self.speeds, effort)
+            u = wheel.body_torque_b
+            self.fill_wheels(self.out_wheels, stamp_msg, wheel.motor_torque_nm)
         self.outage.answered(t, sigma_t, u)
         out = self.out_torque
         out.header.stamp = stamp_msg
@@ -122,6 +147,10 @@ class PdControllerNode(StackNode):
         self.publish(out)
         self.last_stamp = stamp
         self.last_torque = out
+
+    def fill_wheels(self, msg: Any, stamp_msg: Any, motor_torque_nm: Any) -> None:
+        msg.header.stamp = stamp_msg
+        fill_joint_state(msg, self.wheel_names, None, motor_torque_nm)
 
     def on_tick(self, now: int) -> None:
         """The watchdog's answer to a tick when the state is stale (not the target)."""
@@ -141,8 +170,13 @@ class PdControllerNode(StackNode):
         self.send_tick(now, answer.torque_b if self.active else 0.0 * answer.torque_b)
 
     def send_tick(self, stamp_ns: int, torque_b: Any) -> None:
-        """A torque of its own, stamped with a tick of the stack's clock."""
+        """A torque of its own, stamped with a tick of the stack's clock (with wheels,
+        allocated at the last measured wheel speeds)."""
         cv.set_stamp(self.out_tick.header.stamp, stamp_ns)
+        if self.wheels is not None:
+            wheel = self.wheels.allocate(torque_b, self.speeds)
+            torque_b = wheel.body_torque_b
+            self.fill_wheels(self.out_wheels, self.out_tick.header.stamp, wheel.motor_torque_nm)
         set_vector3(self.out_tick.wrench.torque, torque_b)
         self.publish(self.out_tick)
 
@@ -157,11 +191,20 @@ class PdControllerNode(StackNode):
         if self.last_stamp is not None and not self.clock.lockstep:
             self.send_tick(self.clock.now_ns(), (0.0, 0.0, 0.0))  # a plant holds the last
 
-    def publish(self, out: WrenchStamped) -> None:
+    def publish(self, out: WrenchStamped | None, resend: bool = False) -> None:
+        """Send ``out`` (and with wheels the motor torques: those just filled, or on a
+        ``resend`` the last sent again)."""
+        if out is None:
+            return
         if self.drop_fraction and self.rng.random() < self.drop_fraction:
             self.dropped += 1
             return
         self.pub_torque.publish(out)
+        if self.wheels is not None:
+            if not resend:
+                self.last_wheels.header.stamp = self.out_wheels.header.stamp
+                fill_joint_state(self.last_wheels, self.wheel_names, None, self.out_wheels.effort)
+            self.pub_wheels.publish(self.last_wheels)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -14,8 +14,9 @@ serialization.
 from __future__ import annotations
 
 import struct
+from typing import NamedTuple
 
-__all__ = ["FLOATS", "CdrError", "stamped", "read"]
+__all__ = ["FLOATS", "CdrError", "JointValues", "stamped", "read", "joint_state"]
 
 FLOATS = {
     "geometry_msgs/msg/QuaternionStamped": 4,  # x, y, z, w
@@ -32,9 +33,17 @@ class CdrError(ValueError):
     """Serialized bytes that are not the expected message."""
 
 
-def stamped(data: bytes, n_floats: int) -> tuple[int, int, str, tuple[float, ...]]:
-    """``(sec, nanosec, frame_id, floats)`` of a header-then-``n_floats``-doubles message
-    (:data:`FLOATS`); :class:`CdrError` naming what is wrong with ``data``."""
+class JointValues(NamedTuple):
+    """The body of a ``sensor_msgs/JointState`` after its header."""
+
+    name: tuple[str, ...]
+    position: tuple[float, ...]
+    velocity: tuple[float, ...]
+    effort: tuple[float, ...]
+
+
+def _header(data: bytes) -> tuple[str, int, int, str, int]:
+    """``(endian, sec, nanosec, frame_id, end)`` of a stamped message's header."""
     if len(data) < 16 or data[0] != 0 or data[1] > 1 or data[2:4] != b"\x00\x00":
         raise CdrError(f"not a plain CDR message (header {bytes(data[:4]).hex()})")
     endian = "<" if data[1] else ">"
@@ -46,7 +55,62 @@ def stamped(data: bytes, n_floats: int) -> tuple[int, int, str, tuple[float, ...
         frame_id = bytes(data[16 : end - 1]).decode("utf-8")
     except UnicodeDecodeError as err:
         raise CdrError(f"frame_id is not UTF-8: {err}") from None
-    start = end + (-(end - 4)) % 8  # float64 aligned to 8 from the payload's start
+    return endian, sec, nanosec, frame_id, end
+
+
+def _aligned(pos: int, size: int) -> int:
+    """``pos`` aligned to ``size`` bytes from the payload's start (after 4 bytes)."""
+    return pos + (-(pos - 4)) % size
+
+
+MAX_JOINTS = 1024
+"""Longest ``JointState`` sequence read (a wheel array is a few)."""
+
+
+def joint_state(data: bytes) -> tuple[int, int, str, JointValues]:
+    """``(sec, nanosec, frame_id, values)`` of a serialized ``sensor_msgs/JointState``;
+    :class:`CdrError` naming what is wrong with ``data``."""
+    endian, sec, nanosec, frame_id, pos = _header(data)
+    u32 = struct.Struct(endian + "I")
+
+    def count(at: int, what: str) -> tuple[int, int]:
+        at = _aligned(at, 4)
+        if at + 4 > len(data):
+            raise CdrError(f"{len(data)} bytes end before the length of {what}")
+        (n,) = u32.unpack_from(data, at)
+        if n > MAX_JOINTS:
+            raise CdrError(f"{what} of {n} elements (at most {MAX_JOINTS})")
+        return n, at + 4
+
+    n, pos = count(pos, "name")
+    names = []
+    for i in range(n):
+        size, pos = count(pos, f"name[{i}]")
+        end = pos + size
+        if size == 0 or end > len(data) or data[end - 1] != 0:
+            raise CdrError(f"name[{i}] of {size} bytes does not fit a {len(data)}-byte message")
+        try:
+            names.append(bytes(data[pos : end - 1]).decode("utf-8"))
+        except UnicodeDecodeError as err:
+            raise CdrError(f"name[{i}] is not UTF-8: {err}") from None
+        pos = end
+    arrays = []
+    for what in ("position", "velocity", "effort"):
+        n, pos = count(pos, what)
+        if n:
+            pos = _aligned(pos, 8)
+        if pos + 8 * n > len(data):
+            raise CdrError(f"{len(data)} bytes, {pos + 8 * n} needed for {what}")
+        arrays.append(struct.unpack_from(f"{endian}{n}d", data, pos))
+        pos += 8 * n
+    return sec, nanosec, frame_id, JointValues(tuple(names), *arrays)
+
+
+def stamped(data: bytes, n_floats: int) -> tuple[int, int, str, tuple[float, ...]]:
+    """``(sec, nanosec, frame_id, floats)`` of a header-then-``n_floats``-doubles message
+    (:data:`FLOATS`); :class:`CdrError` naming what is wrong with ``data``."""
+    endian, sec, nanosec, frame_id, end = _header(data)
+    start = _aligned(end, 8)  # float64 aligned to 8 from the payload's start
     values = _FLOATS[endian, n_floats]
     if start + values.size > len(data):
         raise CdrError(f"{len(data)} bytes, {start + values.size} needed for {n_floats} floats")

@@ -23,7 +23,7 @@ from builtin_interfaces.msg import Time
 from attitude_core.runtime.plausibility import implausible_mrp, implausible_rate
 from attitude_core.runtime.stamp_pairing import Intake, StampPairing
 from attitude_ros import contract as c
-from attitude_ros.cdr import FLOATS, CdrError, stamped
+from attitude_ros.cdr import FLOATS, CdrError, joint_state, stamped
 from attitude_ros.convert import bad_frame_id, bad_quaternion_xyzw, mrp_from_xyzw, reject
 from attitude_ros.endpoints import subscription
 from attitude_ros.run_guard import RunGuard
@@ -37,8 +37,9 @@ __all__ = [
     "target_rate_value",
 ]
 
-Convert = Callable[[tuple[float, ...]], tuple[Any, str | None]]
-"""A message's floats -> ``(value, None)``, or ``(None, reason)`` when unusable."""
+Convert = Callable[[Any], tuple[Any, str | None]]
+"""A message's floats (a ``JointState``'s :class:`attitude_ros.cdr.JointValues`) ->
+``(value, None)``, or ``(None, reason)`` when unusable."""
 
 
 def attitude_value(q: tuple[float, ...]) -> tuple[Any, str | None]:
@@ -96,13 +97,18 @@ def _callback(
     on_repeat: Callable[[], None],
 ) -> Callable[[Any], None]:
     entry = c.topic(name)
-    n_floats, frame = FLOATS[entry.type_name], entry.frame
+    n_floats, frame = FLOATS.get(entry.type_name, 0), entry.frame
+    joints = entry.type_name == "sensor_msgs/msg/JointState"  # convert gets JointValues
 
     def on_message(data: bytes) -> None:
         if not node.takes_input or not guard.admit(name):
             return  # inactive (a managed node), or a foreign writer
+        floats: Any
         try:
-            sec, nanosec, frame_id, floats = stamped(data, n_floats)
+            if joints:
+                sec, nanosec, frame_id, floats = joint_state(data)
+            else:
+                sec, nanosec, frame_id, floats = stamped(data, n_floats)
         except CdrError as err:  # no stamp to pair it with: refused as a bad value
             pairing.bad_values += 1
             reject(node, name, f"malformed message: {err}", count=pairing.rejected)

@@ -29,7 +29,6 @@ from attitude_core.config.scenario import Scenario, ScenarioError
 from attitude_core.config.scenario_flatten import scenario_keys
 from attitude_core.config.scenario_loader import parse_scenario
 from attitude_core.config.scenario_schema import GROUPS
-from attitude_core.config.scenario_wheels import refuse_on_nodes
 
 P = TypeVar("P")
 
@@ -176,5 +175,4 @@ def declare_scenario_node(node: Node, table: NodeParameters[P]) -> tuple[P, Scen
     own, scenario = declare_node_parameters(node, table)
     if scenario is None:
         raise TypeError("declare_scenario_node: the table reads no scenario")
-    refuse_on_nodes(scenario, f"node '{node.get_fully_qualified_name()}' parameters")
     return own, scenario

@@ -347,7 +347,7 @@ class RunGuard:
         if not unmatched and _short(own, mine):
             unmatched.append(self.spec.role)
         for spec in node_graph.SENSING_LOOP:
-            if spec is self.spec or spec.node_name not in present:
+            if spec.role == self.spec.role or spec.node_name not in present:
                 continue
             if self.peers.get(spec.role) != self.fingerprint:
                 if spec in node_graph.LOOP:

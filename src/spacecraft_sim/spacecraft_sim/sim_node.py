@@ -17,6 +17,11 @@ one draw per step, re-sent unchanged.
 Behind a rehearsal link (``link.*``) the true state of every step goes to
 ``/spacecraft/truth/*`` and the loop gets what the link delivers, on the state topics;
 ``/clock`` is never impaired (the stepping: :mod:`attitude_core.runtime.sim_stepper`).
+
+With a reaction wheel array (``wheels.*``) the command is ``/controller/wheel_torque``
+(motor torques, read by wheel name) instead of ``/controller/torque``; each state goes
+out with ``/spacecraft/wheel_states``, and ``/spacecraft/applied_torque`` is the body
+torque the wheels applied.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
+from attitude_ros.wheel_msgs import WheelOrder
 
 from .sim_out import SimOutputs
 
@@ -47,15 +53,19 @@ class RigidBodySimNode(StackNode):
     def configure(self) -> None:
         own, sc = declare_scenario_node(self, node_graph.SIMULATOR.parameters)
         self.scenario = sc
-        sensing = sc.sensors is not None
-        self.ready = node_graph.readiness(own.lockstep.expected_subscribers, sensing)
+        sensing, wheeled = sc.sensors is not None, sc.wheels is not None
+        self.wired = node_graph.with_wheels(self.spec, wheeled)  # the run's variant
+        self.ready = node_graph.readiness(own.lockstep.expected_subscribers, sensing, wheeled)
         self.stepper = SimStepper.from_scenario(sc, own, created=time.monotonic())
         self.out = SimOutputs(self, sc, self.stepper.lockstep)
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         stamp = lambda: self.stepper.state_stamp or 0
-        self.guard = RunGuard(self, self.spec, sc, lambda code, _: self.finish(code), stamp)
+        self.guard = RunGuard(self, self.wired, sc, lambda code, _: self.finish(code), stamp)
+        self.command = c.WHEEL_TORQUE if wheeled else c.TORQUE
+        self.wheel_order = None if sc.wheels is None else WheelOrder(sc.wheels.names)
+        on_command = self.on_wheel_torque if wheeled else self.on_torque
         self.sub_torque = self.guard.watch(
-            c.TORQUE, subscription(self, c.TORQUE, self.on_torque, raw=True)
+            self.command, subscription(self, self.command, on_command, raw=True)
         )
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
@@ -76,7 +86,7 @@ class RigidBodySimNode(StackNode):
             if count < n:
                 return False
         for name, n in self.ready.min_publishers.items():
-            sub = self.sub_torque if name == c.TORQUE else None
+            sub = self.sub_torque if name == self.command else None
             count = sub.get_publisher_count() if sub is not None else self.count_publishers(name)
             if count < n:
                 return False
@@ -112,6 +122,26 @@ class RigidBodySimNode(StackNode):
         decision = self.stepper.on_torque(time.monotonic(), stamp, w[3:], frame_id, malformed)
         if decision.action == Action.REJECT:
             cv.reject(self, c.TORQUE, decision.reason or "", count=self.stepper.rejected)
+        self.do(decision)
+
+    def on_wheel_torque(self, data: bytes) -> None:
+        """The motor torques of the wheels, by name, in the scenario's order."""
+        if not self.active or not self.guard.admit(c.WHEEL_TORQUE):
+            return
+        assert self.wheel_order is not None
+        try:
+            sec, nanosec, frame_id, values = cdr.joint_state(data)
+        except cdr.CdrError as err:
+            decision = self.stepper.reject(f"malformed message: {err}")
+        else:
+            u, reason = self.wheel_order.array(values, "effort")
+            if u is None:
+                decision = self.stepper.reject(reason or "")
+            else:
+                stamp = sec * 1_000_000_000 + nanosec
+                decision = self.stepper.on_torque(time.monotonic(), stamp, u, frame_id)
+        if decision.action == Action.REJECT:
+            cv.reject(self, c.WHEEL_TORQUE, decision.reason or "", count=self.stepper.rejected)
         self.do(decision)
 
     def do(self, d: Decision) -> None:

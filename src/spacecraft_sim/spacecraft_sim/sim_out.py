@@ -7,6 +7,9 @@ sensors' samples with sensors), and the torque applied over the step.
 ``inertial``) and the body rate (``omega_B``, frame ``body``), one stamp, refilled for
 each state. The simulator has one for the state the loop reads and, behind a rehearsal
 link, one for the truth (``/spacecraft/truth/*``, for the record).
+
+With a wheel array each state goes out with ``/spacecraft/wheel_states`` of its stamp
+(the wheel speeds, and the motor torques applied over the step that ended at it).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from attitude_core.runtime.sim_stepper import Decision, StateOut
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
 from attitude_ros.endpoints import message, publisher
+from attitude_ros.wheel_msgs import fill_joint_state
 
 from .sensor_out import SensorOut
 
@@ -62,6 +66,9 @@ class SimOutputs:
         self.pub_applied = publisher(node, c.APPLIED_TORQUE)
         self.msg_clock = ClockMsg()
         self.msg_applied = message(c.APPLIED_TORQUE)
+        self.wheel_names = None if sc.wheels is None else sc.wheels.names
+        self.pub_wheels = None if sc.wheels is None else publisher(node, c.WHEEL_STATES)
+        self.msg_wheels = message(c.WHEEL_STATES)
 
     @property
     def state_publishers(self) -> dict[str, Any]:
@@ -82,10 +89,17 @@ class SimOutputs:
             if d.state.clock_ns is not None:  # lockstep only
                 cv.set_stamp(self.msg_clock.clock, d.state.clock_ns)
             self.state.fill(d.state)
+            if self.wheel_names is not None and d.state.wheel_speeds is not None:
+                cv.set_stamp(self.msg_wheels.header.stamp, d.state.stamp_ns)
+                effort = d.state.wheel_effort
+                assert effort is not None
+                fill_joint_state(self.msg_wheels, self.wheel_names, d.state.wheel_speeds, effort)
             if self.sensors is not None:
                 self.sensors.measure(d.state.k, d.state.stamp_ns, d.state.sigma_bn, d.state.omega_b)
         if d.state is not None or (d.resend and d.resend_state):
             self.state.publish()
+            if self.pub_wheels is not None:
+                self.pub_wheels.publish(self.msg_wheels)
             if self.sensors is not None:
                 self.sensors.publish()
             if self.lockstep and self.truth is None:  # lockstep only; behind a link the

@@ -7,11 +7,18 @@ readiness gate is :func:`readiness`. With declared sensors (``sensors.*``) the r
 :data:`SENSING_NODES`: the estimator joins the loop between the simulator's
 measurements and the state the planner and controller read (:func:`graph`). Plain
 data, no ROS import.
+
+With a reaction wheel array (``wheels.*``) the loop's nodes are the wheeled variants
+(:data:`WHEELED`): the simulator takes ``/controller/wheel_torque`` and publishes
+``/spacecraft/wheel_states``; the controller reads the wheel states and publishes the
+wheel torques beside the body torque; the planner reads both (which wheels still
+answer: the slew is re-budgeted on the rest). :func:`with_wheels` gives a node's
+variant, :func:`graph` the run's.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Generic, TypeVar
 
 from attitude_core.config import node_parameters as params
@@ -38,6 +45,8 @@ __all__ = [
     "SENSING_STOP_ORDER",
     "Graph",
     "graph",
+    "WHEELED",
+    "with_wheels",
 ]
 
 
@@ -138,6 +147,32 @@ MANAGER = NodeSpec(
 them, checks the run, activates them in :data:`NODES` order and brings them down in
 reverse (:mod:`attitude_core.runtime.bringup`). Not a managed node itself."""
 
+
+def _wheeled(
+    spec: NodeSpec[P], subscribes: tuple[str, ...], publishes: tuple[str, ...]
+) -> NodeSpec[P]:
+    return replace(
+        spec,
+        subscribes=tuple(n for n in spec.subscribes if n not in subscribes) + subscribes,
+        publishes=spec.publishes + publishes,
+    )
+
+
+WHEELED: dict[str, NodeSpec[Any]] = {
+    PLANNER.role: _wheeled(PLANNER, (t.WHEEL_STATES, t.WHEEL_TORQUE), ()),
+    CONTROLLER.role: _wheeled(CONTROLLER, (t.WHEEL_STATES,), (t.WHEEL_TORQUE,)),
+    SIMULATOR.role: replace(
+        SIMULATOR, subscribes=(t.WHEEL_TORQUE,), publishes=SIMULATOR.publishes + (t.WHEEL_STATES,)
+    ),
+}
+"""The loop nodes with a wheel array, by role."""
+
+
+def with_wheels(spec: NodeSpec[P], wheels: bool) -> NodeSpec[P]:
+    """``spec``, or its wheeled variant when the scenario declares ``wheels.*``."""
+    return WHEELED.get(spec.role, spec) if wheels else spec
+
+
 NODES = (RECORDER, PLANNER, CONTROLLER, SIMULATOR)
 """Start order: the recorder first (nothing is missed), the simulator last (it waits)."""
 LOOP = (PLANNER, CONTROLLER, SIMULATOR)
@@ -162,12 +197,21 @@ class Graph:
         return ESTIMATOR in self.nodes
 
 
-def graph(sensing: bool) -> Graph:
+def graph(sensing: bool, wheels: bool = False) -> Graph:
     """The graph of a run with (``sensing``: the scenario declares ``sensors.*`` and our
-    estimator runs) or without an estimator."""
-    if sensing:
-        return Graph(SENSING_NODES, SENSING_LOOP, SENSING_STOP_ORDER)
-    return Graph(NODES, LOOP, STOP_ORDER)
+    estimator runs) or without an estimator; ``wheels``: its wheeled variant."""
+    found = (
+        Graph(SENSING_NODES, SENSING_LOOP, SENSING_STOP_ORDER)
+        if sensing
+        else Graph(NODES, LOOP, STOP_ORDER)
+    )
+    if not wheels:
+        return found
+
+    def w(specs: tuple[NodeSpec[Any], ...]) -> tuple[NodeSpec[Any], ...]:
+        return tuple(with_wheels(n, True) for n in specs)
+
+    return Graph(w(found.nodes), w(found.loop), tuple(w(wave) for wave in found.stop_order))
 
 
 def node(role: str) -> NodeSpec[Any]:
@@ -187,7 +231,7 @@ def state_listeners(nodes: tuple[NodeSpec[Any], ...] = NODES) -> int:
     """How many of ``nodes`` listen to the state the simulator publishes (the gyro with
     sensors): the value of ``lockstep.expected_subscribers`` for that graph."""
     state = _plant_state(nodes)
-    return sum(1 for n in nodes if n is not SIMULATOR and state in n.subscribes)
+    return sum(1 for n in nodes if n.role != SIMULATOR.role and state in n.subscribes)
 
 
 @dataclass(frozen=True)
@@ -214,26 +258,26 @@ def per_step_outputs(spec: NodeSpec[Any]) -> tuple[str, ...]:
     return tuple(name for name in spec.publishes if not t.topic(name).latched)
 
 
-def readiness(expected_subscribers: int, sensing: bool = False) -> Readiness:
+def readiness(expected_subscribers: int, sensing: bool = False, wheels: bool = False) -> Readiness:
     """What the simulator waits for when ``expected_subscribers`` nodes listen to its state
-    (the gyro with ``sensing``).
+    (the gyro with ``sensing``); ``wheels``: the wheeled graph.
 
     The listeners beyond the loop's own are observers (a recorder, a probe), each taken
     to observe every topic the loop exchanges. A topic then needs the loop nodes that
     subscribe it (the simulator's own subscription included) plus the observers; each
     topic that a loop peer publishes for another needs that publisher.
     """
-    loop = graph(sensing).loop
+    loop = graph(sensing, wheels).loop
     state = _plant_state(loop)
     observers = expected_subscribers - sum(
-        1 for n in loop if n is not SIMULATOR and state in n.subscribes
+        1 for n in loop if n.role != SIMULATOR.role and state in n.subscribes
     )
     exchanged = sorted({name for n in loop for name in n.subscribes})
     subs = {name: max(sum(name in n.subscribes for n in loop) + observers, 0) for name in exchanged}
     pubs = {
         name: 1
         for n in loop
-        if n is not SIMULATOR
+        if n.role != SIMULATOR.role
         for name in n.publishes
         if any(name in m.subscribes for m in loop)
     }

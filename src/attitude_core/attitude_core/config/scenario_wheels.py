@@ -11,14 +11,14 @@ from typing import Any
 
 import numpy as np
 
-from attitude_core.config.scenario import Scenario, ScenarioError
+from attitude_core.config.scenario import ScenarioError
 from attitude_core.models.ephemeris import Orbit
 from attitude_core.models.link_spec import LinkSpec
 from attitude_core.models.sensor_spec import SensorSpec
 from attitude_core.models.wheel_array import RPM, WheelArray, WheelSpec
 from attitude_core.world.disturbances import Disturbances
 
-__all__ = ["parse_wheels", "parse_disturbances", "refuse_on_nodes"]
+__all__ = ["parse_wheels", "parse_disturbances"]
 
 
 def parse_wheels(
@@ -84,16 +84,3 @@ def parse_disturbances(
     inertia = tuple(float(x) for x in np.asarray(values["inertia_kgm2"], dtype=float).ravel())
     torque = (0.0, 0.0, 0.0) if constant is None else tuple(float(x) for x in constant)
     return Disturbances(inertia, orbit if gradient else None, torque)  # type: ignore[arg-type]
-
-
-def refuse_on_nodes(scenario: Scenario, source: str) -> None:
-    """Raise :class:`ScenarioError` for a scenario the ROS nodes cannot fly yet: a wheel
-    array or external torques (the offline loop and campaigns fly them)."""
-    if scenario.wheels is not None or scenario.disturbances is not None:
-        key = "wheels.names" if scenario.wheels is not None else "disturbances"
-        raise ScenarioError(
-            source,
-            key,
-            "the ROS nodes do not fly a wheel array or external torques yet "
-            "(attitude-offline and attitude-campaign do)",
-        )

@@ -58,7 +58,9 @@ def wheel_figures(run: RunResult) -> dict[str, Any]:
     error = np.linalg.norm(h_n - h_n[0] - explained, axis=1)
     return {
         "peak_wheel_speed_frac": float(np.max(np.abs(wheels.speed_rad_s) / array.max_speed)),
-        "peak_wheel_torque_frac": float(np.max(np.abs(wheels.applied_nm) / array.max_torque)),
+        "peak_wheel_torque_frac": float(
+            np.nanmax(np.abs(wheels.applied_nm) / array.max_torque)  # NaN: none on record
+        ),
         "momentum_error_nms": float(np.max(error)),
     }
 

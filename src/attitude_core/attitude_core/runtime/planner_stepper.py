@@ -38,6 +38,7 @@ from attitude_core.assembly.guidance import (
     guidance_from_scenario,
     prepare_guidance,
 )
+from attitude_core.assembly.guidance_limits import WheelBudget
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.diagnostics import PlannerDiagnostics
 from attitude_core.contract.faults import Fault
@@ -95,6 +96,10 @@ class PlannerReport:
     logs: Logs
 
 
+_KEPT_WHEEL_STEPS = 16
+"""Wheel commands and states kept to judge a step whose pieces come out of order."""
+
+
 class PlannerStepper:
     """See the module docstring. ``prepared``: :func:`prepare_guidance` of ``scenario``
     (made here when not given); ``executor``: where routes are planned again (default: a
@@ -120,6 +125,11 @@ class PlannerStepper:
         self.derating = 1.0
         self.sigma_t: Vector | None = None  # the last target
         self.watchdog = StateWatchdog(scenario.watchdog)
+        self.wheels = None if scenario.wheels is None else WheelBudget(scenario)
+        self.commands: dict[int, Vector] = {}  # wheel torques sent, by state stamp
+        # speeds, applied torques and sigma_BN by state stamp, kept to judge
+        self.wheel_states: dict[int, tuple[Vector, Vector, Vector]] = {}
+        self.wheel_stamp: int | None = None  # the state the wheel budget last saw
 
     def takes_input(self, active: bool) -> bool:
         """Active, or deactivated after its first target: it then holds that target."""
@@ -132,10 +142,11 @@ class PlannerStepper:
         omega_b: Vector,
         active: bool = True,
         at_ns: int | None = None,
+        wheels: tuple[Vector, Vector] | None = None,
     ) -> PlannerStep:
         """The target of the state stamped ``stamp_ns``; ``at_ns``: its time for the
         watchdog (the stack's clock; default: its stamp); held when not ``active`` or in
-        safe mode."""
+        safe mode. ``wheels``: the wheel state of the stamp (speeds, applied torques)."""
         at = stamp_ns if at_ns is None else at_ns
         ended = self.watchdog.measured(at, at) if active else []
         if not active or self.watchdog.safe:
@@ -150,6 +161,8 @@ class PlannerStepper:
         elif ended:  # states back after a gap: the guidance goes on from this one
             self.guidance.resume(t_s, sigma_bn, omega_b)
             logs += [("info", f"states back: {f.detail}") for f in ended]
+        if wheels is not None and self.wheels is not None:
+            self._wheel_state(stamp_ns, sigma_bn, wheels, logs)
         t0 = time.perf_counter()
         result = self.guidance.update(t_s, sigma_bn, omega_b)
         step_s = time.perf_counter() - t0
@@ -158,6 +171,56 @@ class PlannerStepper:
         omega_t = np.array(result.target.omega_t, dtype=float)
         return PlannerStep(
             stamp_ns, t_s, sigma_bn, self.sigma_t, omega_t, result, step_s, logs, ended
+        )
+
+    def wheel_command(self, stamp_ns: int, motor_torque_nm: Vector) -> list[tuple[str, str]]:
+        """The controller's motor torques for the state stamped ``stamp_ns``; when the
+        next state's wheel state is already in, that step is judged now."""
+        self.commands[stamp_ns] = np.asarray(motor_torque_nm, dtype=float)
+        while len(self.commands) > _KEPT_WHEEL_STEPS:
+            del self.commands[min(self.commands)]
+        logs: Logs = []
+        if self.wheel_stamp is not None and self.wheel_stamp > stamp_ns and self.guidance:
+            later = [s for s in self.wheel_states if s > stamp_ns]
+            if later and stamp_ns in self.wheel_states:
+                self._judge(stamp_ns, min(later), logs)
+        return logs
+
+    def _wheel_state(
+        self, stamp_ns: int, sigma_bn: Vector, wheels: tuple[Vector, Vector], logs: Logs
+    ) -> None:
+        """The wheel state of a stepped state: the step before it judged (when its
+        command is in), the first one's speeds checked against the declared."""
+        assert self.wheels is not None
+        speeds, effort = (np.asarray(w, dtype=float) for w in wheels)
+        self.wheel_states[stamp_ns] = (speeds, effort, np.asarray(sigma_bn, dtype=float))
+        while len(self.wheel_states) > _KEPT_WHEEL_STEPS:
+            del self.wheel_states[min(self.wheel_states)]
+        previous, self.wheel_stamp = self.wheel_stamp, stamp_ns
+        self._judge(previous, stamp_ns, logs)
+
+    def _judge(self, before: int | None, at: int, logs: Logs) -> None:
+        """The step from the state ``before`` (its command) to ``at`` (what was applied)."""
+        assert self.wheels is not None and self.guidance is not None
+        speeds, effort, sigma = self.wheel_states[at]
+        if before is not None:
+            if before not in self.commands or before not in self.wheel_states:
+                return  # judged when the command comes
+            self.wheels.commanded(self.commands.pop(before), self.wheel_states[before][0])
+        usable = self.wheels.watch.usable.copy()
+        limits = self.wheels.measured(sigma, speeds, effort)
+        if limits is None:
+            return
+        self.guidance.limits = limits
+        names = self.wheels.array.names
+        now = self.wheels.watch.usable
+        lost = [n for n, was, is_ in zip(names, usable, now, strict=True) if was and not is_]
+        why = f"wheel(s) {lost} stopped answering" if lost else "measured wheel speeds"
+        logs.append(
+            (
+                "warning" if lost else "info",
+                f"{why}: slew re-budgeted at {limits.max_rate_rad_s:.4g} rad/s",
+            )
         )
 
     def rebase_watchdog(self) -> None:

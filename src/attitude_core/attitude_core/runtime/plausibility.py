@@ -67,16 +67,17 @@ def _finite(values: Values, name: str) -> str | None:
     return None
 
 
-def implausible_torque(u: Values, bound: Sequence[float]) -> str | None:
-    """Why a commanded torque (body axes, N m) is not plausible, else None."""
+def implausible_torque(u: Values, bound: Sequence[float], wheels: bool = False) -> str | None:
+    """Why a commanded torque (body axes, N m; ``wheels``: motor torques, one per wheel
+    in the scenario's order) is not plausible, else None."""
     reason = _finite(u, "torque")
     if reason:
         return reason
     for axis, (value, limit) in enumerate(zip(u, bound, strict=True)):
         if abs(value) > limit:
+            about = f"of wheel {axis}" if wheels else f"about body axis {'xyz'[axis]}"
             return (
-                f"torque {float(value):.6g} N m about body axis {'xyz'[axis]} exceeds the "
-                f"plausible bound {limit:.6g} N m"
+                f"torque {float(value):.6g} N m {about} exceeds the plausible bound {limit:.6g} N m"
             )
     return None
 

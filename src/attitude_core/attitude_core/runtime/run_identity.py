@@ -43,6 +43,7 @@ from attitude_core.config import node_graph
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract import topics as t
 from attitude_core.contract.exit_codes import EXIT_FINGERPRINT_MISMATCH, EXIT_FOREIGN_PUBLISHER
+from attitude_core.models.wheel_array import WheelArray
 
 __all__ = [
     "RUN_NAMESPACE_PREFIX",
@@ -155,12 +156,20 @@ def in_run(namespace: str) -> bool:
 
 
 _TABLE_NAMES = frozenset(n.node_name for n in node_graph.SENSING_NODES)
-PLANT_TOPICS = frozenset(node_graph.SIMULATOR.publishes) | frozenset(t.STATE_TOPICS)
+PLANT_TOPICS = frozenset(node_graph.WHEELED[node_graph.SIMULATOR.role].publishes) | frozenset(
+    t.STATE_TOPICS
+)
 """The topics a plant publishes (the simulator's, or a bridge's in its place)."""
 
 
+_TABLE: tuple[node_graph.NodeSpec[Any], ...] = (
+    *node_graph.SENSING_NODES,
+    *node_graph.WHEELED.values(),
+)
+
+
 def _table_publishes(topic: str, name: str) -> bool:
-    return any(name == n.node_name and topic in n.publishes for n in node_graph.SENSING_NODES)
+    return any(name == n.node_name and topic in n.publishes for n in _TABLE)
 
 
 def _own(topic: str, e: Endpoint, own_namespace: str, plant_nodes: frozenset[str]) -> bool:
@@ -233,7 +242,9 @@ def scenario_fingerprint(scenario: Scenario) -> str:
     values = {}
     for f in dataclasses.fields(scenario):
         value = getattr(scenario, f.name)
-        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        if isinstance(value, WheelArray):  # its wheels, in order
+            value = [dataclasses.asdict(w) for w in value.wheels]
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
             value = dataclasses.asdict(value)
         values[f.name] = _plain(value)
     del values["source"]

@@ -46,6 +46,13 @@ that are non-finite or beyond the plausible bound
 set) are refused, never integrated; should the state still become non-finite, the
 simulator stops (exit 1) rather than publish it. The run ends (exit code 0) after
 ``n_steps`` steps.
+
+With a wheel array (``wheels.*``) the body is :class:`WheeledBody`: the command is the
+motor torques of the wheels in the scenario's order (the node reads them from
+``/controller/wheel_torque`` by name), the wheels apply their own limits
+(:class:`attitude_core.world.wheel_plant.WheelPlant`), the applied torque published is
+the body torque they made, and each state carries the wheel speeds and the motor
+torques applied over the step that ended at it (``/spacecraft/wheel_states``).
 """
 
 from __future__ import annotations
@@ -72,6 +79,7 @@ from attitude_core.runtime.plausibility import (
 from attitude_core.world.actuator import clip_to_bound
 from attitude_core.world.link import StateLink
 from attitude_core.world.rigid_body import RigidBody
+from attitude_core.world.wheel_plant import WheelPlant
 
 if TYPE_CHECKING:
     from attitude_core.config.node_parameters import SimulatorParams
@@ -84,6 +92,7 @@ __all__ = [
     "SimStepper",
     "SETTLE_S",
     "STARTUP_RESEND_FRACTION",
+    "WheeledBody",
 ]
 
 SETTLE_S = 0.05
@@ -96,6 +105,9 @@ state, see :data:`STARTUP_RESEND_FRACTION`."""
 STARTUP_RESEND_FRACTION = 0.25
 """Re-send period of the state until the loop has answered once, as a fraction of
 ``resend_period_s`` (0.05 s by default)."""
+PLAUSIBLE_WHEEL_FACTOR = 10.0
+"""A wheel's motor torque command beyond this many times its ``max_torque_nm`` is
+refused as implausible (within it the wheel clips it)."""
 ANSWERABLE_STATES = 100
 """A torque must answer one of the last this many published states (10 s at 0.1 s)."""
 
@@ -133,8 +145,8 @@ class StepperConfig:
     max_held_steps: int = 1
     torque_stale_s: float = 0.5
     startup_timeout_s: float = 60.0
-    max_torque_nm: tuple[float, float, float] | None = None  # the plant's bound, per axis
-    plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3
+    max_torque_nm: tuple[float, ...] | None = None  # the plant's bound, per axis
+    plausible_torque_nm: tuple[float, ...] = (DEFAULT_MAX_TORQUE_NM,) * 3  # per axis or wheel
     link: LinkSpec | None = None  # the rehearsal link (None: the state goes out as made)
     fdir: FdirConfig | None = None  # the stack's watchdog rule (lockstep behind a link)
 
@@ -150,8 +162,8 @@ class StepperConfig:
         params: SimulatorParams,
         dt_s: float,
         n_steps: int,
-        max_torque_nm: tuple[float, float, float] | None = None,
-        plausible_torque_nm: tuple[float, float, float] = (DEFAULT_MAX_TORQUE_NM,) * 3,
+        max_torque_nm: tuple[float, ...] | None = None,
+        plausible_torque_nm: tuple[float, ...] = (DEFAULT_MAX_TORQUE_NM,) * 3,
         link: LinkSpec | None = None,
         fdir: FdirConfig | None = None,
     ) -> StepperConfig:
@@ -176,13 +188,44 @@ class StepperConfig:
 class StateOut:
     """A state to publish: ``stamp_ns`` on attitude and rate; ``clock_ns`` on ``/clock``
     in lockstep, where it is the simulated time the stamps carry (None in real time:
-    there the stamps are the node's clock and no ``/clock`` is published)."""
+    there the stamps are the node's clock and no ``/clock`` is published). With wheels:
+    their speeds (rad/s) and the motor torques applied over the step that ended here."""
 
     k: int
     stamp_ns: int
     clock_ns: int | None
     sigma_bn: Vector
     omega_b: Vector
+    wheel_speeds: Vector | None = None
+    wheel_effort: Vector | None = None
+
+
+class WheeledBody:
+    """A :class:`WheelPlant` as the stepper's body: ``step(motor torques, dt)`` from the
+    plant's own time (steps taken times ``dt``)."""
+
+    def __init__(self, plant: WheelPlant) -> None:
+        self.plant = plant
+        self.steps = 0
+        self.effort: Vector = np.zeros(len(plant.array))  # applied over the last step
+        self.body_torque_b: Vector = np.zeros(3)
+
+    @property
+    def sigma_bn(self) -> Vector:
+        return self.plant.sigma_bn
+
+    @property
+    def omega_b(self) -> Vector:
+        return self.plant.omega_b
+
+    @property
+    def speeds(self) -> Vector:
+        return self.plant.speeds
+
+    def step(self, motor_torque_nm: Vector, dt: float) -> None:
+        out = self.plant.step(motor_torque_nm, self.steps * dt, dt)
+        self.steps += 1
+        self.effort, self.body_torque_b = out.motor_torque_nm, out.body_torque_b
 
 
 @dataclass
@@ -218,12 +261,16 @@ class Decision:
 class SimStepper:
     """See the module docstring. ``created`` is the wall time the start-up clock starts."""
 
-    def __init__(self, config: StepperConfig, body: RigidBody, created: float) -> None:
+    def __init__(
+        self, config: StepperConfig, body: RigidBody | WheeledBody, created: float
+    ) -> None:
         self.cfg = config
         self.body = body
+        self.wheeled = isinstance(body, WheeledBody)
         self.dt_ns = int(round(config.dt_s * NS_PER_S))
         self.k = 0
-        self.torque: Vector = np.zeros(3)
+        self.command_size = len(config.plausible_torque_nm)  # 3 axes, or the wheels
+        self.torque: Vector = np.zeros(self.command_size)
         self.waiting_stamp: int | None = None  # lockstep: the state awaiting its torque
         self.state_stamp: int | None = None  # stamp of the state last published
         self.published: deque[int] = deque(maxlen=ANSWERABLE_STATES)  # stamps a torque answers
@@ -253,6 +300,20 @@ class SimStepper:
         cls, scenario: Scenario, parameters: SimulatorParams, created: float
     ) -> SimStepper:
         """The stepper of a scenario's body, with the simulator node's parameters."""
+        if scenario.wheels is not None:
+            array = scenario.wheels
+            wheel_plant = WheelPlant(
+                scenario.inertia_kgm2,
+                array,
+                scenario.initial_mrp,
+                scenario.initial_rate_rad_s,
+                scenario.disturbances,
+            )
+            plausible = tuple(float(x) * PLAUSIBLE_WHEEL_FACTOR for x in array.max_torque)
+            wheel_config = StepperConfig.from_parameters(
+                parameters, scenario.dt_s, scenario.n_steps, None, plausible, None, None
+            )
+            return cls(wheel_config, WheeledBody(wheel_plant), created)
         declared = scenario.actuators.max_torque_nm
         weaker = float(parameters.fault.wheel_torque_fraction)
         plant = None if declared is None else (
@@ -322,7 +383,9 @@ class SimStepper:
         u = np.asarray(torque, dtype=float)
         if frame_id != BODY_FRAME:
             return self._reject(f"frame_id {frame_id!r}, expected {BODY_FRAME!r}")
-        reason = implausible_torque(u.tolist(), self.cfg.plausible_torque_nm)
+        if u.shape != (self.command_size,):
+            return self._reject(f"{u.size} torques for {self.command_size}")
+        reason = implausible_torque(u.tolist(), self.cfg.plausible_torque_nm, self.wheeled)
         if reason:
             return self._reject(reason)
         if self.done or self.started_at is None:
@@ -349,6 +412,10 @@ class SimStepper:
         decision.logs[:0] = logs
         return decision
 
+    def reject(self, reason: str) -> Decision:
+        """A command the node could not read (e.g. a wheel missing): refused, counted."""
+        return self._reject(reason)
+
     def on_timer(self, now: float, clock_ns: int = 0) -> Decision:
         """Lockstep: the torque deadline check (call often, e.g. every 20 ms). Real time:
         one step (call every ``dt_s``; ``clock_ns`` is the node's clock, the stamp)."""
@@ -367,7 +434,7 @@ class SimStepper:
             self.held_steps += 1
             if self.held_steps > self.cfg.max_held_steps:
                 logs = self._set_stale(True)
-                self.torque = np.zeros(3)
+                self.torque = np.zeros(self.command_size)
                 action = Action.ZERO
             else:
                 logs = [
@@ -406,13 +473,18 @@ class SimStepper:
         self.waiting_stamp = None
         self.tick_wait = False
         applied, applied_stamp = self._bounded(torque), self.state_stamp
-        if self.k >= self.cfg.n_steps:
+        if self.k >= self.cfg.n_steps:  # nothing flown: what the plant would apply
+            body = self.body
+            if isinstance(body, WheeledBody):
+                u = body.plant.applied(applied, body.steps * self.cfg.dt_s)
+                applied = body.plant.array.body_torque_b(u)
             decision = self._end(now, applied)
             decision.applied_stamp_ns = applied_stamp
             return decision
         self.body.step(applied, self.cfg.dt_s)
         if not self._finite_state():
             return self._diverged()
+        applied = self._applied_b(applied)
         self.k += 1
         if self.link is not None:
             decision = Decision(action, applied=applied, applied_stamp_ns=applied_stamp)
@@ -437,7 +509,7 @@ class SimStepper:
             and now - self.torque_received_at > self.cfg.torque_stale_s
         ):
             logs = self._set_stale(True)
-            self.torque = np.zeros(3)
+            self.torque = np.zeros(self.command_size)
             self.torque_received_at = None
         if self.stale:
             action = Action.ZERO
@@ -447,6 +519,7 @@ class SimStepper:
             self.body.step(applied, self.cfg.dt_s)
             if not self._finite_state():
                 return self._diverged()
+            applied = self._applied_b(applied)
         if self.link is not None:
             decision = Decision(action, applied=applied, applied_stamp_ns=applied_stamp, logs=logs)
             self._linked_realtime(now, clock_ns, decision)
@@ -528,13 +601,32 @@ class SimStepper:
         if self.lockstep:
             self.waiting_stamp = stamp_ns
         self.sent_at = self.first_sent_at = now
-        return StateOut(
-            self.k, stamp_ns, clock_ns, self.body.sigma_bn.copy(), self.body.omega_b.copy()
-        )
+        body = self.body
+        if isinstance(body, WheeledBody):
+            return StateOut(
+                self.k,
+                stamp_ns,
+                clock_ns,
+                body.sigma_bn.copy(),
+                body.omega_b.copy(),
+                body.speeds.copy(),
+                body.effort.copy(),
+            )
+        return StateOut(self.k, stamp_ns, clock_ns, body.sigma_bn.copy(), body.omega_b.copy())
+
+    def _applied_b(self, command: Vector) -> Vector:
+        """The body torque of the step just taken (with wheels: what they applied)."""
+        body = self.body
+        return body.body_torque_b.copy() if isinstance(body, WheeledBody) else command
 
     def _bounded(self, torque: Vector) -> Vector:
         """The torque the body gets: clipped per axis to the plant's bound, as independent
-        wheels saturate (:func:`attitude_core.world.actuator.clip_to_bound`)."""
+        wheels saturate (:func:`attitude_core.world.actuator.clip_to_bound`). With wheels,
+        the command as sent: the wheel plant applies each wheel's limits."""
+        if isinstance(self.body, WheeledBody):
+            array = self.body.plant.array
+            self.saturated_steps += int(np.any(np.abs(torque) > array.max_torque))
+            return np.asarray(torque, dtype=float)
         applied, saturated = clip_to_bound(torque, self.cfg.max_torque_nm)
         self.saturated_steps += int(saturated)
         return np.array(applied, dtype=float)

@@ -24,6 +24,13 @@ bag does not hold (NaN). A run behind a rehearsal link (``link.*``, no sensors) 
 rebuilt from the truth the same way, with no estimate: the states the link delivered
 are what the loop was fed.
 
+With a wheel array (``wheels.*``) :attr:`RunResult.wheels` comes from
+``/spacecraft/wheel_states`` (each step's speeds; the torques applied over step ``k``
+are the efforts of the state that ends it, none on record for the last step: NaN) and
+``/controller/wheel_torque`` (the commanded, NaN where none is on record), by wheel
+name. The external torque is the scenario's model (``disturbances.*``) on the recorded
+attitude, held over each step as the simulator holds it.
+
 ``RunResult.faults`` is the state watchdog replayed on the stamps of the states the
 loop was fed (:func:`attitude_core.fsw.fdir.state_watchdog.faults_from_stamps`), up to the
 last step, and with sensors the star tracker's gaps
@@ -60,13 +67,15 @@ from attitude_core.contract.topics import (
     TORQUE,
     TRUTH_ANGULAR_VELOCITY,
     TRUTH_ATTITUDE,
+    WHEEL_STATES,
+    WHEEL_TORQUE,
     stamp_ns,
 )
 from attitude_core.fsw.fdir.state_watchdog import faults_from_stamps
 from attitude_core.fsw.fdir.tracker_watch import tracker_outages
 from attitude_core.models.mrp import mrp_from_quat
 from attitude_core.record.summary import summarize
-from attitude_core.record.trajectory import Estimates, RunResult
+from attitude_core.record.trajectory import Estimates, RunResult, WheelRecord
 from attitude_tools.bag.reader import read_attachment, read_bag
 
 _TOPICS = (
@@ -80,6 +89,8 @@ _TOPICS = (
     TRUTH_ATTITUDE,
     TRUTH_ANGULAR_VELOCITY,
     STAR_TRACKER,
+    WHEEL_STATES,
+    WHEEL_TORQUE,
 )
 
 
@@ -234,8 +245,43 @@ def run_from_bag(
             attitude_3sigma_deg=np.array([three_sigma.get(s, np.nan) for s in states[:n]]),
             nees=np.full(n, np.nan),
         )
+    if scenario.wheels is not None and by_topic[WHEEL_STATES]:
+        run.wheels = _wheel_record(scenario, by_topic, states[:n], run)
     return BagRun(
         run, stamps, np.array([wall[s] for s in states[:n]], dtype=np.int64), len(states) - n
+    )
+
+
+def _by_name(msg: Any, field: str, names: Sequence[str]) -> list[float]:
+    """``msg.<field>`` in the scenario's wheel order (NaN for a wheel not in it)."""
+    got = dict(zip(msg.name, getattr(msg, field), strict=False))
+    return [float(got.get(name, np.nan)) for name in names]
+
+
+def _wheel_record(
+    scenario: Scenario, by_topic: dict[str, dict[int, Any]], steps: Sequence[int], run: RunResult
+) -> WheelRecord:
+    """The wheels of each step (see the module docstring)."""
+    assert scenario.wheels is not None
+    names, m = scenario.wheels.names, len(scenario.wheels)
+    states, commands = by_topic[WHEEL_STATES], by_topic[WHEEL_TORQUE]
+    nan = [np.nan] * m
+
+    def rows(found: dict[int, Any], field: str, at: Sequence[int | None]) -> np.ndarray:
+        return np.array(
+            [_by_name(found[s], field, names) if s in found else nan for s in at], dtype=float
+        )
+
+    following: list[int | None] = [*steps[1:], None]
+    external = np.zeros((len(steps), 3))
+    if scenario.disturbances is not None:
+        for k, (t_s, sigma) in enumerate(zip(run.t, run.sigma_bn, strict=True)):
+            external[k] = scenario.disturbances.torque_b(float(t_s), sigma)
+    return WheelRecord(
+        speed_rad_s=rows(states, "velocity", steps),
+        commanded_nm=rows(commands, "effort", steps),
+        applied_nm=rows(states, "effort", following),
+        external_b=external,
     )
 
 

@@ -30,7 +30,6 @@ from attitude_core.config import node_graph as graph
 from attitude_core.config.node_graph import NodeSpec
 from attitude_core.config.scenario import Scenario, ScenarioError
 from attitude_core.config.scenario_loader import load_scenario
-from attitude_core.config.scenario_wheels import refuse_on_nodes
 from attitude_core.contract.faults import FaultKind
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import ANGULAR_VELOCITY, ATTITUDE, IMU, STAR_TRACKER
@@ -176,7 +175,6 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
     }
     wall0 = time.monotonic()
     scenario = load_scenario(req.scenario_path)
-    refuse_on_nodes(scenario, req.scenario_path)
     if req.external_estimate and scenario.sensors is None:
         raise ScenarioError(
             req.scenario_path,
@@ -184,8 +182,10 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
             "missing: an external estimate needs the sensors it comes from (sensors.*: the "
             "guidance's knowledge bounds)",
         )
-    nodes = graph.graph(scenario.sensors is not None and not req.external_estimate)
-    started = [n for n in nodes.nodes if req.plant == PLANT_SIM or n is not graph.SIMULATOR]
+    nodes = graph.graph(
+        scenario.sensors is not None and not req.external_estimate, scenario.wheels is not None
+    )
+    started = [n for n in nodes.nodes if req.plant == PLANT_SIM or n.role != graph.SIMULATOR.role]
     check_node_params(req.scenario_path, req.node_params, started)  # before anything is written
     out = check_replaceable(req.out_dir, ("summary.json", "bag"), "run directory")
     return CheckedInputs(scenario, out, started, nodes, extra, wall0)
