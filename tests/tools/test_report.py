@@ -4,7 +4,7 @@ The module fixture records paper Case 1 twice through the ROS 2 node graph
 (``attitude-run``, improved and paper-faithful planners, each on its own reserved
 ``ROS_DOMAIN_ID`` (conftest.py) with localhost-only discovery, both at once), then the tests run the
 ``attitude-report`` command on those run directories. The geometry helpers are tested
-without ROS.
+without ROS, and so are keep-in cones and reaction wheels, on bags written here.
 """
 
 import base64
@@ -538,3 +538,143 @@ def test_keep_in_report_writes_the_cone_into_figures_table_and_summary(keep_in_r
     assert "keep-in cones: axis (body), direction (inertial), largest angle" in page
     assert "sun_sensor: [0, 0.7071, 0.7071]" in page
     assert 'class="num bad" data-key="min_margin_deg_per_pair/keep_in/sun_sensor"' in page
+
+
+# --- reaction wheels (no ROS: flown offline, written to a bag, read back) ----------------
+
+
+@pytest.fixture(scope="module")
+def wheel_run(tmp_path_factory):
+    """``wheel_run(name)``: (report run, offline run) of scenarios/<name>.yaml cut to 30 s,
+    flown offline (``run_closed_loop``), written to a bag and rebuilt by the report's
+    loader. Until the bag loader rebuilds the wheels from ``/spacecraft/wheel_states``
+    (``attitude-run`` refuses wheels for now), the offline run's ``WheelRecord`` is
+    attached to the rebuilt run: its rows are the same steps."""
+    from attitude_core.config.scenario_loader import loads_scenario
+    from attitude_core.loop.closed_loop import run_closed_loop
+    from attitude_tools.report.data import load_run
+
+    cache = {}
+
+    def get(name):
+        if name not in cache:
+            text = (ROOT / "scenarios" / f"{name}.yaml").read_text(encoding="utf-8")
+            text = text.replace("sim_time_s: 400.0", "sim_time_s: 30.0")
+            offline = run_closed_loop(loads_scenario(text, name))
+            run_dir = tmp_path_factory.mktemp(name)
+            _write_run_bag(run_dir / "bag", text, offline.t, offline.sigma_bn, offline.omega_b)
+            run = load_run(str(run_dir))
+            np.testing.assert_allclose(run.run.t, offline.t, atol=1e-9)
+            if run.run.wheels is None:
+                run.bag_run.run.wheels = offline.wheels
+            cache[name] = run, offline
+        return cache[name]
+
+    return get
+
+
+def test_wheel_figure_draws_each_wheel_against_its_limits(wheel_run, keep_in_run):
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import same_color
+
+    from attitude_core.models.wheel_array import RPM
+    from attitude_core.record.wheel_figures import wheel_figures
+    from attitude_tools.report.figures.context import FigureContext
+    from attitude_tools.report.figures.wheels import fig_wheels
+
+    run, offline = wheel_run("case1_rw_pyramid")
+    assert run.scenario.wheels.names == ("rw1", "rw2", "rw3", "rw4")
+    fig = fig_wheels(FigureContext([run], mrp_grid=24))
+    try:
+        assert len(fig.axes) == 3
+        assert fig.axes[0].get_ylabel() == "wheel speed (rpm)"
+        for i, name in enumerate(run.scenario.wheels.names):
+            gid = f"{run.label}/wheel/{name}"
+            (speed,) = _with_gid(fig, f"{gid}/speed")
+            np.testing.assert_allclose(speed.get_xdata(), run.run.t)
+            np.testing.assert_allclose(speed.get_ydata(), offline.wheels.speed_rad_s[:, i] / RPM)
+            (torque,) = _with_gid(fig, f"{gid}/torque")
+            np.testing.assert_allclose(torque.get_ydata(), offline.wheels.applied_nm[:, i])
+            for part, limit, data in (
+                ("speed_limit", 6000.0, speed.get_ydata()),  # max_speed_rpm of the scenario
+                ("torque_limit", 0.03, torque.get_ydata()),  # max_torque_nm
+            ):
+                lines = _with_gid(fig, f"{gid}/{part}")
+                assert sorted(line.get_ydata()[0] for line in lines) == pytest.approx(
+                    [-limit, limit], rel=1e-12
+                )
+                for line in lines:  # dashed, grey: every wheel has this limit
+                    assert line.get_linestyle() == "--" and same_color(line.get_color(), "0.3")
+                assert np.max(np.abs(data)) <= limit * (1.0 + 1e-9)
+        # The slew saturates the motors: the applied torque reaches its dashed limit.
+        peak = wheel_figures(offline)["peak_wheel_torque_frac"]
+        assert peak > 0.99
+        assert np.max(np.abs(offline.wheels.applied_nm)) / 0.03 == pytest.approx(peak)
+        assert f"peak |torque| / limit {peak:.3g}" in [ax.get_title() for ax in fig.axes]
+    finally:
+        plt.close(fig)
+    # Compared with a run without wheels: one column, the wheel run's.
+    fig = fig_wheels(FigureContext([keep_in_run, run], mrp_grid=24))
+    try:
+        assert len(fig.axes) == 3
+        assert len(_with_gid(fig, f"{run.label}/wheel/rw1/speed")) == 1
+        assert not any(str(a.get_gid()).startswith(keep_in_run.label) for a in fig.findobj())
+    finally:
+        plt.close(fig)
+
+
+@pytest.mark.parametrize("name", ["case1_rw_pyramid", "leo_rw_gravity_gradient"])
+def test_wheel_figure_momentum_is_flat_when_free_and_drifts_with_gravity_gradient(wheel_run, name):
+    import matplotlib.pyplot as plt
+
+    from attitude_core.record.wheel_figures import inertial_momentum, wheel_figures
+    from attitude_tools.report.figures.context import FigureContext
+    from attitude_tools.report.figures.wheels import fig_wheels
+
+    run, offline = wheel_run(name)
+    h_n = inertial_momentum(offline)
+    change = h_n - h_n[0]
+    fig = fig_wheels(FigureContext([run], mrp_grid=24))
+    try:
+        ax = None
+        for i in range(3):
+            (line,) = _with_gid(fig, f"{run.label}/momentum/{i}")
+            np.testing.assert_allclose(line.get_ydata(), change[:, i], atol=1e-15)
+            ax = line.axes
+        lo, hi = ax.get_ylim()
+        assert lo <= change.min() and change.max() <= hi
+        size = float(np.linalg.norm(h_n[0]))
+        drift = float(np.max(np.abs(change)))
+        if name == "case1_rw_pyramid":  # no external torque: constant to rounding
+            assert drift < 1e-12 * max(size, 1.0)
+            assert hi - lo >= 0.02 * size * (1 - 1e-9)  # shown flat, not magnified rounding
+        else:  # the gravity gradient's integral, a few 1e-5 N m over 30 s
+            assert drift > 1e-5 and drift > 1e3 * wheel_figures(offline)["momentum_error_nms"]
+            assert hi - lo < 3.0 * (change.max() - change.min()) + 0.02 * size
+    finally:
+        plt.close(fig)
+
+
+@pytest.mark.slow
+def test_wheel_report_has_the_wheel_figure_and_a_run_without_wheels_none(
+    wheel_run, keep_in_run, tmp_path
+):
+    from attitude_tools.report.cli import write_report
+    from attitude_tools.report.figures import WHEEL_ARRAY_FIGURES, figures_for
+
+    run, _ = wheel_run("case1_rw_pyramid")
+    assert list(figures_for([run])) == [*FIGURES, "wheels.png"]
+    out = Path(write_report([run], str(tmp_path / "wheels"), dpi=60, mrp_grid=16))
+    assert_valid_figure(out / "wheels.png")
+    page = (out / "report.html").read_text(encoding="utf-8")
+    title, caption = WHEEL_ARRAY_FIGURES["wheels.png"]
+    assert f'<figure id="wheels.png"><h3>{title}</h3>' in page
+    assert html.escape(caption) in page
+    data = base64.b64encode((out / "wheels.png").read_bytes()).decode("ascii")
+    assert f'src="data:image/png;base64,{data}"' in page
+    # A run without wheels: the report it had before, no wheel figure or section.
+    assert figures_for([keep_in_run]) == FIGURES
+    out = Path(write_report([keep_in_run], str(tmp_path / "plain"), dpi=60, mrp_grid=16))
+    assert sorted(p.name for p in out.glob("*.png")) == sorted(FIGURES)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "wheel" not in page.lower()

@@ -6,7 +6,9 @@ regions and the boresight trajectory on the right ascension / declination plane
 ("Trajectory" figures), and the time histories of the MRPs, the angular velocity and
 the torque ("Time History of the States"). :data:`FIGURES` lists them, plus the margin
 of every constraint against time; :func:`figures_for` adds the estimation figure for
-runs flown on an estimate. No plotting here.
+runs flown on an estimate and the wheel figure for runs flown by a reaction wheel array
+(:func:`flies_on_wheels`); a run with neither gets exactly :data:`FIGURES`. No plotting
+here.
 
 Keep-in cones (a body axis that must stay within an angle of an inertial direction)
 appear wherever keep-out cones do, drawn dashed in green and labelled ``keep_in/<name>``
@@ -22,7 +24,13 @@ from collections.abc import Sequence
 
 from ..data import ReportRun
 
-__all__ = ["FIGURES", "ESTIMATION_FIGURES", "figures_for"]
+__all__ = [
+    "FIGURES",
+    "ESTIMATION_FIGURES",
+    "WHEEL_ARRAY_FIGURES",
+    "figures_for",
+    "flies_on_wheels",
+]
 
 # file name -> (title, what it shows); the order of the report.
 FIGURES = {
@@ -85,10 +93,34 @@ ESTIMATION_FIGURES = {
 }
 """Figures only for runs that were flown on an estimate (``RunResult.estimate``)."""
 
+WHEEL_ARRAY_FIGURES = {
+    "wheels.png": (
+        "Reaction wheels",
+        "Runs with wheels: each wheel's speed relative to the body (rpm) and the motor "
+        "torque it applied (N m, held over each step) against its limits (dashed, +/-; grey "
+        "when every wheel has the same limit); the change since t = 0 of the system angular "
+        "momentum in inertial axes, C_BN^T (J omega + sum_i g_i Js_i Omega_i) (N m s): flat "
+        "at zero without external torque, drifting by the integral of a disturbance (the "
+        "gravity gradient). The titles give the peak speed and torque as fractions of the "
+        "limits, the momentum's size at t = 0 and its unexplained change: the largest "
+        "change the integrated external torque does not explain (summary.json's "
+        "peak_wheel_speed_frac, peak_wheel_torque_frac, momentum_error_nms).",
+    ),
+}
+"""Figures only for runs flown by a reaction wheel array (:func:`flies_on_wheels`)."""
+
+
+def flies_on_wheels(run: ReportRun) -> bool:
+    """Whether ``run`` was flown by a wheel array and its record holds the wheels."""
+    return run.scenario.wheels is not None and run.run.wheels is not None
+
 
 def figures_for(runs: Sequence[ReportRun]) -> dict[str, tuple[str, str]]:
-    """The figures of a report on ``runs``: :data:`FIGURES`, and the estimation figure
-    when a run was flown on an estimate."""
+    """The figures of a report on ``runs``: :data:`FIGURES`, the estimation figure when a
+    run was flown on an estimate, the wheel figure when a run was flown by wheels."""
+    figures = dict(FIGURES)
     if any(r.run.estimate is not None for r in runs):
-        return {**FIGURES, **ESTIMATION_FIGURES}
-    return dict(FIGURES)
+        figures.update(ESTIMATION_FIGURES)
+    if any(flies_on_wheels(r) for r in runs):
+        figures.update(WHEEL_ARRAY_FIGURES)
+    return figures

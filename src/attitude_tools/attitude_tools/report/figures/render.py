@@ -19,6 +19,7 @@ from .margin import fig_margin
 from .mrp_space import fig_keepout_mrp, fig_trajectory_mrp
 from .sky_maps import fig_keepout_inertial, fig_trajectory_boresight
 from .style import STYLE
+from .wheels import fig_wheels
 
 __all__ = ["render_figures"]
 
@@ -32,6 +33,7 @@ _BUILDERS: dict[str, Callable[[FigureContext], Figure]] = {
     "history_torque.png": fig_history_torque,
     "margin.png": fig_margin,
     "estimation.png": fig_estimation,
+    "wheels.png": fig_wheels,
 }
 
 

@@ -17,6 +17,7 @@ __all__ = [
     "KEEP_IN_COLORS",
     "KEEP_IN_LINE",
     "COMPONENT_COLORS",
+    "WHEEL_COLORS",
     "STYLE",
     "START",
     "GOAL",
@@ -38,6 +39,17 @@ PAIR_COLORS = (  # no green: green is the keep-in cones'
 KEEP_IN_COLORS = ("tab:green", "darkgreen", "yellowgreen", "mediumseagreen")
 KEEP_IN_LINE: dict[str, Any] = dict(linestyle=(0, (5, 3)), linewidth=1.8)
 COMPONENT_COLORS = ("tab:blue", "tab:orange", "tab:green")
+WHEEL_COLORS = (  # not the components' blue, orange, green (the momentum in the same
+    # figure, the compared runs' arrival lines), nor red (safe mode)
+    "tab:purple",
+    "tab:brown",
+    "tab:cyan",
+    "tab:pink",
+    "tab:olive",
+    "goldenrod",
+    "tab:gray",
+    "darkslateblue",
+)
 STYLE: dict[RcKeyType, Any] = {
     "figure.dpi": 100,
     "font.size": 10,
