@@ -539,3 +539,43 @@ def test_every_fault_kind_is_on_the_faults_timeline_with_its_levels(layout):
         assert path["timestampMethod"] == "headerStamp"
         levels = {s["value"] for s in path["customStates"]["states"]}
         assert {str(int(DiagnosticLevel.OK)), str(int(kind.level))} <= levels
+
+
+WHEEL_PANEL_ENTRIES = 4  # the wheel plots show entries 0-3 of each JointState
+
+
+def _plot_with(layout, value: str) -> tuple[str, dict]:
+    found = [
+        (k, c)
+        for k, c in layout["configById"].items()
+        if panel_type(k) == "Plot" and value in [p["value"] for p in c["paths"]]
+    ]
+    assert len(found) == 1, f"{value}: in {len(found)} Plot panels"
+    return found[0]
+
+
+def test_wheel_panels_plot_the_contract_joint_states(layout):
+    """The wheel speeds (``/spacecraft/wheel_states`` velocity) and the motor torques,
+    commanded (``/controller/wheel_torque`` effort) against applied (wheel_states effort,
+    dashed), by entry 0-3, at the header stamp: contract topics of type JointState."""
+    for topic in (topics.WHEEL_STATES, topics.WHEEL_TORQUE):
+        assert topic in CONTRACT and topic in topics.WHEEL_TOPICS
+        assert CONTRACT[topic].type_name == "sensor_msgs/msg/JointState"
+    speed_id, speeds = _plot_with(layout, f"{topics.WHEEL_STATES}.velocity[0]")
+    assert {p["value"] for p in speeds["paths"]} == {
+        f"{topics.WHEEL_STATES}.velocity[{i}]" for i in range(WHEEL_PANEL_ENTRIES)
+    }
+    assert panel_topics(speed_id, speeds) == {topics.WHEEL_STATES}
+    torque_id, torques = _plot_with(layout, f"{topics.WHEEL_TORQUE}.effort[0]")
+    by_value = {p["value"]: p for p in torques["paths"]}
+    assert set(by_value) == {
+        f"{topic}.effort[{i}]"
+        for topic in (topics.WHEEL_TORQUE, topics.WHEEL_STATES)
+        for i in range(WHEEL_PANEL_ENTRIES)
+    }
+    assert panel_topics(torque_id, torques) == {topics.WHEEL_STATES, topics.WHEEL_TORQUE}
+    for i in range(WHEEL_PANEL_ENTRIES):
+        assert by_value[f"{topics.WHEEL_STATES}.effort[{i}]"]["lineStyle"] == "dashed"
+        assert "lineStyle" not in by_value[f"{topics.WHEEL_TORQUE}.effort[{i}]"]
+    for config in (speeds, torques):
+        assert {p["timestampMethod"] for p in config["paths"]} == {"headerStamp"}
