@@ -7,6 +7,11 @@ what the bridge publishes (:mod:`.sampling`, :mod:`.qos_probe`), plays
 per contract point and a summary (:mod:`.verdict`). Exit code 0 when every point passes
 (or is skipped), 1 when one fails, 2 on bad parameters (:mod:`.loop`).
 Parameters: ``mode``, ``scenario``, ``timeout_s``, ``launch`` (see :data:`PARAMETERS`).
+
+With a scenario that declares ``wheels.*`` it stands in for the wheeled controller: it
+answers each state on ``/controller/wheel_torque`` (the motor torques, by wheel name) and
+the body torque they make on ``/controller/torque`` (for the record, as the controller
+does), and listens to ``/spacecraft/wheel_states``.
 """
 
 from __future__ import annotations
@@ -27,9 +32,9 @@ from attitude_ros.params import declare_node_parameters
 
 from . import loop, verdict
 from .bridge_process import start_bridge
-from .driver import Driver
+from .driver import Driver, wheel_order
 from .qos_probe import QosProbe
-from .record import Recording, Sample, Setup
+from .record import JointSample, Recording, Sample, Setup
 from .sampling import Sampler, Torques
 from .watch import Watch
 
@@ -92,13 +97,17 @@ class BridgeCheckNode(loop.CheckNode):
         self.done = False
         self.exit_code = 0
         self.probe = QosProbe(self)
+        self.wheels = self.scenario.wheels
+        ours = [*node_graph.readiness(1).min_publishers]
+        heard = [c.ANGULAR_VELOCITY, c.APPLIED_TORQUE, c.CLOCK]
+        if self.wheels is not None:  # the plant steps on the motor torques
+            ours.append(c.WHEEL_TORQUE)
+            heard.append(c.WHEEL_STATES)
         self.pubs = {
             name: publisher(self, name, event_callbacks=self.probe.publisher_events(name))
-            for name in node_graph.readiness(1).min_publishers
+            for name in ours
         }
-        self.subs = {
-            name: self._subscribe(name) for name in (c.ANGULAR_VELOCITY, c.APPLIED_TORQUE, c.CLOCK)
-        }
+        self.subs = {name: self._subscribe(name) for name in heard}
         try:
             self.bridge = start_bridge(own.launch, own.scenario, self.mode)
         except OSError as err:
@@ -118,8 +127,18 @@ class BridgeCheckNode(loop.CheckNode):
 
     def on_message(self, name: str, msg: Any) -> None:
         now = time.monotonic()
+        sample: Sample | JointSample
         if name == c.CLOCK:
             sample = Sample(cv.stamp_ns(msg.clock), "", (), now)
+        elif name == c.WHEEL_STATES:
+            sample = JointSample(
+                cv.stamp_ns(msg.header.stamp),
+                msg.header.frame_id,
+                tuple(msg.name),
+                tuple(float(x) for x in msg.velocity),
+                tuple(float(x) for x in msg.effort),
+                now,
+            )
         else:
             stamp = cv.stamp_ns(msg.header.stamp)
             sample = Sample(stamp, msg.header.frame_id, values(name, msg), now)
@@ -127,11 +146,21 @@ class BridgeCheckNode(loop.CheckNode):
 
     def send(self, torques: Torques, now: float) -> None:
         for stamp, u in torques:
+            order = None
+            body = u
+            if self.wheels is not None:  # u: the motor torques, in the scenario's order
+                order = wheel_order(self.driver.index.get(stamp, 0), len(self.wheels))
+                wheel = message(c.WHEEL_TORQUE)
+                cv.set_stamp(wheel.header.stamp, stamp)
+                wheel.name = [self.wheels.names[j] for j in order]
+                wheel.effort = [float(u[j]) for j in order]
+                self.pubs[c.WHEEL_TORQUE].publish(wheel)
+                body = self.wheels.body_torque_b(u)
             msg = message(c.TORQUE)
             cv.set_stamp(msg.header.stamp, stamp)
-            cv.set_vector3(msg.wrench.torque, u)
+            cv.set_vector3(msg.wrench.torque, body)
             self.pubs[c.TORQUE].publish(msg)
-            self.sampler.sent(stamp, u, now)
+            self.sampler.sent(stamp, u, now, order)
 
     def tick(self) -> None:
         """Called by the loop between callbacks. The attitude is subscribed last: the

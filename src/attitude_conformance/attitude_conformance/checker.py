@@ -10,8 +10,11 @@ point              judged from
 ``frames``         attitude ``inertial``; rate and applied torque ``body``
 ``quaternion``     unit norm; the first state is the scenario's initial attitude (x, y, z, w)
 ``torque_step``    each answered step is RigidBody over ``dt`` from the bridge's own state
-                   with that torque held
+                   with that torque held (with wheels: the hub and wheels with the motor
+                   torques)
 ``applied_torque`` stamped with the step's state, the torque applied (SKIP if never sent)
+``wheels``         with ``wheels.*``: wheel states stamped with each state, complete, the
+                   commanded motor torques applied within the step (:mod:`.checks_wheels`)
 ``resend``         lockstep: the identical state again every resend period without torque
 ``stale``          lockstep: hold one step, then zero torque; real time: zero once stale
 ``link``           the states' latency, jitter, losses and longest wait against the stack's
@@ -26,6 +29,7 @@ from __future__ import annotations
 from .checks_link import check_link
 from .checks_messages import check_clock, check_frames, check_quaternion, check_stamps
 from .checks_physics import check_applied, check_resend, check_stale, check_torque_step
+from .checks_wheels import check_wheels
 from .record import Recording, Result
 from .steps import states, steps
 
@@ -43,6 +47,7 @@ def judge(rec: Recording) -> list[Result]:
         check_quaternion(rec, seq),
         check_torque_step(rec, taken),
         check_applied(rec, seq, taken),
+        check_wheels(rec, seq, taken),
         check_resend(rec, seq),
         check_stale(rec, taken),
         check_link(rec, seq),

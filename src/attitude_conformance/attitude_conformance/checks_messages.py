@@ -127,12 +127,14 @@ def check_clock(rec: Recording, seq: list[State]) -> Result:
 
 
 def check_frames(rec: Recording) -> Result:
-    """``inertial`` on the attitude, ``body`` on the rate and the applied torque."""
+    """``inertial`` on the attitude, ``body`` on the rate, the applied torque and the wheel
+    states."""
     problems = []
     for name, samples, want in (
         ("attitude", rec.attitude, INERTIAL_FRAME),
         ("angular_velocity", rec.rate, BODY_FRAME),
         ("applied_torque", rec.applied, BODY_FRAME),
+        ("wheel_states", rec.wheel_states, BODY_FRAME),
     ):
         wrong = [s.frame for s in samples if s.frame != want]
         if wrong:
@@ -144,9 +146,9 @@ def check_frames(rec: Recording) -> Result:
         return Result("frames", FAIL, "; ".join(problems))
     if not rec.attitude:
         return Result("frames", FAIL, "no state received")
-    return Result(
-        "frames", PASS, f"attitude '{INERTIAL_FRAME}', rate and applied torque '{BODY_FRAME}'"
-    )
+    what = "rate and applied torque"
+    what = "rate, applied torque and wheel states" if rec.wheel_states else what
+    return Result("frames", PASS, f"attitude '{INERTIAL_FRAME}', {what} '{BODY_FRAME}'")
 
 
 def check_quaternion(rec: Recording, seq: list[State]) -> Result:

@@ -1,4 +1,8 @@
-"""Checks of the stepping: ``torque_step``, ``applied_torque``, ``resend``, ``stale``."""
+"""Checks of the stepping: ``torque_step``, ``applied_torque``, ``resend``, ``stale``.
+
+With wheels the torques are the commanded motor torques and the physics is the hub and
+its wheels (:func:`.physics.reference`); ``applied_torque`` is then the body torque of
+the motor torques the wheels applied, ``-G u``."""
 
 from __future__ import annotations
 
@@ -8,9 +12,9 @@ import numpy as np
 
 from attitude_core.contract.topics import BODY_FRAME
 
-from .physics import ATTITUDE_TOL_RAD, RATE_TOL_RAD_S, matches, step_errors
+from .physics import ATTITUDE_TOL_RAD, RATE_TOL_RAD_S, matches
 from .record import FAIL, PASS, SKIP, Recording, Result, Window
-from .steps import State, Step
+from .steps import POSITIONAL, State, Step, step_reference
 
 APPLIED_TOL = 1e-9  # N m: the applied torque is the torque, not a re-computation
 LATE_SHARE = 0.25  # real time: at most this share of steps may use the previous torque
@@ -19,6 +23,7 @@ HINTS = {
     "the torque of the previous step": "the torque is applied one step late",
     "the torque of the next step": "the torque is applied one step early",
     "zero torque": "the torque was ignored",
+    POSITIONAL: "the wheel torque's arrays are read by name, in any order",
 }
 
 
@@ -30,15 +35,19 @@ def _where(step: Step) -> str:
     return f"step {step.before.index} (stamp {step.before.stamp_ns} ns)"
 
 
+def model(rec: Recording) -> str:
+    """The reference physics, as the verdicts name it."""
+    return "RigidBody" if rec.setup.wheels is None else "the hub and wheels (WheelPlant)"
+
+
 def alternative(rec: Recording, step: Step) -> str | None:
-    """The other torque (previous step's, next step's, zero) the step matches, if any."""
-    before = (step.before.quat, step.before.rate)
-    after = (step.after.quat, step.after.rate)
+    """The other torque (previous step's, next step's, zero; with wheels the efforts read
+    by position) the step matches, if any."""
     expected = step.accepted[0][1]
     for label, u in step.alternatives:
         if np.array_equal(u, expected):
             continue
-        if matches(step_errors(rec.setup.inertia, before, after, u, rec.setup.dt_s)):
+        if matches(step_reference(rec, step, u).errors):
             return label
     return None
 
@@ -46,10 +55,11 @@ def alternative(rec: Recording, step: Step) -> str | None:
 def explain(rec: Recording, step: Step, alt: str | None = None) -> str:
     """Why a step failed the physics, naming the torque it matches instead (``alt``)."""
     label, u = step.accepted[0]
+    what = "torque" if rec.setup.wheels is None else "motor torques"
     text = (
         f"{_where(step)}: next state off by {step.errors[0]:.3g} rad / {step.errors[1]:.3g} rad/s "
-        f"from RigidBody with the {label} torque {_vec(u)} N m held over dt = {rec.setup.dt_s} s "
-        f"(tolerance {ATTITUDE_TOL_RAD:g} rad, {RATE_TOL_RAD_S:g} rad/s)"
+        f"from {model(rec)} with the {label} {what} {_vec(u)} N m held over "
+        f"dt = {rec.setup.dt_s} s (tolerance {ATTITUDE_TOL_RAD:g} rad, {RATE_TOL_RAD_S:g} rad/s)"
     )
     alt = alt or alternative(rec, step)
     if alt is not None:
@@ -66,6 +76,13 @@ def _not_reached(rec: Recording, what: str) -> str:
 def check_torque_step(rec: Recording, steps: list[Step]) -> Result:
     """Each answered step is the rigid body propagated over dt with that torque held."""
     commanded = [s for s in steps if s.kind == "commanded"]
+    if rec.setup.wheels is not None and not steps and len(rec.attitude) > 1:
+        return Result(
+            "torque_step",
+            FAIL,
+            "no step starts from a state with its wheel speeds (/spacecraft/wheel_states of "
+            "its stamp): the wheel plant cannot be judged (point wheels)",
+        )
     failed = [s for s in commanded if s.matched is None]
     if failed:
         found = [(s, alternative(rec, s)) for s in failed]
@@ -98,13 +115,14 @@ def check_torque_step(rec: Recording, steps: list[Step]) -> Result:
     return Result(
         "torque_step",
         PASS,
-        f"{len(commanded)} steps ({len(nonzero)} non-zero torques) match RigidBody over "
+        f"{len(commanded)} steps ({len(nonzero)} non-zero torques) match {model(rec)} over "
         f"dt = {rec.setup.dt_s} s to {att:.2g} rad, {rate:.2g} rad/s{extra}",
     )
 
 
 def check_applied(rec: Recording, seq: list[State], steps: list[Step]) -> Result:
-    """``/spacecraft/applied_torque`` stamped with the step's state, the torque it applied."""
+    """``/spacecraft/applied_torque`` stamped with the step's state, the torque it applied
+    (with wheels: the body torque of the motor torques the wheels applied)."""
     if not rec.applied:
         return Result("applied_torque", SKIP, "never published (optional for a bridge)")
     wrong = next((a for a in rec.applied if a.frame != BODY_FRAME), None)
@@ -126,7 +144,8 @@ def check_applied(rec: Recording, seq: list[State], steps: list[Step]) -> Result
         )
     for s in steps:
         got = by_stamp[s.before.stamp_ns]
-        want = [s.torque] if s.torque is not None else [u for _, u in s.accepted]
+        tried = [(lab, u) for lab, u in s.accepted if s.matched in (None, lab)]
+        want = [(s.refs.get(lab) or step_reference(rec, s, u)).body for lab, u in tried]
         if not any(np.allclose(got, u, rtol=0.0, atol=APPLIED_TOL) for u in want):
             return Result(
                 "applied_torque",

@@ -7,6 +7,10 @@ States are counted in order of arrival (attitude and rate of one stamp both in).
 then zero torque), the next is; the check ends at state 37. Real time: after state 32
 nothing is answered for ``torque_stale_s + 0.7 s``, then three more states are answered.
 The script stops early (``aborted``) when the bridge stops producing states.
+
+With wheels (``wheels.*``) the answers are motor torques (:func:`wheel_torque`: some
+beyond the wheels' ``max_torque_nm``, to be clipped), sent with the wheel names in an
+order that changes from state to state (:func:`wheel_order`: read by name).
 """
 
 from __future__ import annotations
@@ -35,6 +39,23 @@ def torque(i: int) -> np.ndarray:
     )
 
 
+def wheel_torque(i: int, max_torque_nm: np.ndarray) -> np.ndarray:
+    """The scripted motor torques of state ``i`` (N m, the scenario's wheel order): zero for
+    states 20 to 29 as :func:`torque`; else varying, up to 1.5 times each wheel's limit on
+    every third state (those are clipped), 0.8 times otherwise."""
+    if NONZERO_STEPS <= i < RESEND_AT:
+        return np.zeros(len(max_torque_nm))
+    scale = 1.5 if i % 3 == 1 else 0.8
+    j = np.arange(len(max_torque_nm))
+    return scale * np.asarray(max_torque_nm) * np.sin(0.9 * i + 1.7 * j + 0.4)
+
+
+def wheel_order(i: int, n: int) -> tuple[int, ...]:
+    """The order of the ``n`` wheels in the command of state ``i`` (indices into the
+    scenario's order): rotated by ``i``, so most commands are not in the declared order."""
+    return tuple((j + i) % n for j in range(n))
+
+
 class Driver:
     """Decides, from the arrival of states and the time, which torques to send."""
 
@@ -52,13 +73,15 @@ class Driver:
         self.withheld: tuple[str, int, float] | None = None  # (kind, stamp, since)
         self.stale_end_i: int | None = None
         self.done = False
+        wheels = rec.setup.wheels
+        self.command = torque if wheels is None else (lambda i: wheel_torque(i, wheels.max_torque))
 
     @property
     def n(self) -> int:
         return len(self.index)
 
     def _answer(self, stamp: int, i: int, now: float) -> list[tuple[int, np.ndarray]]:
-        u = torque(i)
+        u = self.command(i)
         self.answers[stamp] = u
         self.waiting_since = now
         return [(stamp, u)]

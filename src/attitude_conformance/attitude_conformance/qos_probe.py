@@ -51,12 +51,16 @@ class QosProbe:
         return matched or grace or bool(self.incompatible)
 
     def topics(self, pubs: dict[str, Any], subs: dict[str, Any]) -> list[TopicQos]:
-        """The state topics and the torque, required; the others when the bridge has them
-        or they had an event. The bridge's endpoints are the graph's but the tool's own."""
+        """The state topics and the torque the plant steps on (with wheels: the wheel
+        states and the motor torques), required; the others when the bridge has them or
+        they had an event. The bridge's endpoints are the graph's but the tool's own."""
         node, me = self.node, self.node.get_name()
         out = []
+        wheels = c.WHEEL_TORQUE in pubs
+        steps_on = c.WHEEL_TORQUE if wheels else c.TORQUE
         wanted = [(c.ATTITUDE, True), (c.ANGULAR_VELOCITY, True), (c.APPLIED_TORQUE, False)]
-        wanted += [(c.CLOCK, False)] + [(name, name == c.TORQUE) for name in pubs]
+        wanted += [(c.WHEEL_STATES, True)] if wheels else []
+        wanted += [(c.CLOCK, False)] + [(name, name == steps_on) for name in pubs]
         for name, required in wanted:
             ours = name in pubs
             infos = (

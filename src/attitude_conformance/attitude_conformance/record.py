@@ -2,7 +2,9 @@
 
 A message is a :class:`Sample` ``(stamp_ns, frame, values, wall_s)``: the header stamp in
 integer nanoseconds, the ``frame_id``, the numbers (quaternion ``(x, y, z, w)``, vector,
-torque) and the tool's monotonic receipt (or send) time.
+torque, or the motor torques the tool commanded in the scenario's wheel order) and the
+tool's monotonic receipt (or send) time. A wheel state (``sensor_msgs/JointState``) is a
+:class:`JointSample`, its arrays as published (read by name by the checks).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from attitude_core.config.node_parameters import SIMULATOR
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.time_mode import TimeMode
 from attitude_core.fsw.fdir.fdir_config import FdirConfig
+from attitude_core.models.wheel_array import WheelArray
 
 PASS, FAIL, SKIP = "PASS", "FAIL", "SKIP"
 POINTS = (
@@ -27,6 +30,7 @@ POINTS = (
     "quaternion",
     "torque_step",
     "applied_torque",
+    "wheels",
     "resend",
     "stale",
     "link",
@@ -40,6 +44,18 @@ class Sample(NamedTuple):
     stamp_ns: int
     frame: str
     values: tuple[float, ...]
+    wall_s: float = 0.0
+
+
+class JointSample(NamedTuple):
+    """One ``/spacecraft/wheel_states`` message: stamp (ns), frame_id, ``name``,
+    ``velocity``, ``effort`` as published, tool's monotonic time (s)."""
+
+    stamp_ns: int
+    frame: str
+    names: tuple[str, ...]
+    velocity: tuple[float, ...]
+    effort: tuple[float, ...]
     wall_s: float = 0.0
 
 
@@ -77,6 +93,7 @@ class Setup:
     initial_rate: np.ndarray
     limits: BridgeLimits = BridgeLimits()
     fdir: FdirConfig | None = None  # the stack's state watchdog (None: the step's defaults)
+    wheels: WheelArray | None = None  # the scenario's reaction wheels (None: a body torque)
 
     @classmethod
     def from_scenario(cls, scenario: Scenario, mode: str = TimeMode.LOCKSTEP) -> Setup:
@@ -87,6 +104,7 @@ class Setup:
             np.asarray(scenario.initial_mrp, dtype=float),
             np.asarray(scenario.initial_rate_rad_s, dtype=float),
             fdir=scenario.watchdog,
+            wheels=scenario.wheels,
         )
 
     @property
@@ -111,7 +129,12 @@ class Recording:
     rate: list[Sample] = field(default_factory=list)
     applied: list[Sample] = field(default_factory=list)
     clock: list[Sample] = field(default_factory=list)  # stamp_ns: the /clock time
-    torques: list[Sample] = field(default_factory=list)  # sent by the tool
+    wheel_states: list[JointSample] = field(default_factory=list)
+    # sent by the tool: the body torques, or with wheels the motor torques (wheel order)
+    torques: list[Sample] = field(default_factory=list)
+    # with wheels: stamp -> the order of the wheels in the command's arrays (indices into
+    # the scenario's wheel order), when not the scenario's own
+    wheel_orders: dict[int, tuple[int, ...]] = field(default_factory=dict)
     windows: list[Window] = field(default_factory=list)
     aborted: str | None = None  # why the script stopped early
     system_offset_s: float | None = None  # this host's time.time() - time.monotonic()

@@ -15,12 +15,13 @@ from attitude_core.contract.topics import (
     ATTITUDE,
     BODY_FRAME,
     CLOCK,
+    WHEEL_STATES,
 )
 
 from .driver import Driver
-from .record import Recording, Sample
+from .record import JointSample, Recording, Sample
 
-Torques = list[tuple[int, np.ndarray]]  # (stamp_ns, torque N m) to send
+Torques = list[tuple[int, np.ndarray]]  # (stamp_ns, torque N m, or motor torques) to send
 
 
 class Sampler:
@@ -28,7 +29,8 @@ class Sampler:
 
     def __init__(self, rec: Recording, driver: Driver) -> None:
         self.rec, self.driver = rec, driver
-        self.samples = {
+        self.samples: dict[str, list] = {
+            WHEEL_STATES: rec.wheel_states,
             CLOCK: rec.clock,
             APPLIED_TORQUE: rec.applied,
             ATTITUDE: rec.attitude,
@@ -37,7 +39,7 @@ class Sampler:
         self.stamps: dict[str, set[int]] = {ATTITUDE: set(), ANGULAR_VELOCITY: set()}
         self.complete: set[int] = set()
 
-    def heard(self, name: str, sample: Sample) -> Torques:
+    def heard(self, name: str, sample: Sample | JointSample) -> Torques:
         """Record a message of topic ``name``; the torques to send now (the driver's
         answer when it completes a state)."""
         self.samples[name].append(sample)
@@ -53,6 +55,11 @@ class Sampler:
             return self.driver.on_state(stamp, sample.wall_s)
         return []
 
-    def sent(self, stamp: int, u: np.ndarray, now: float) -> None:
-        """Record a torque the tool published."""
+    def sent(
+        self, stamp: int, u: np.ndarray, now: float, order: tuple[int, ...] | None = None
+    ) -> None:
+        """Record a torque the tool published (with wheels: the motor torques in the
+        scenario's order, sent in ``order``)."""
         self.rec.torques.append(Sample(stamp, BODY_FRAME, tuple(float(x) for x in u), now))
+        if order is not None and order != tuple(range(len(order))):
+            self.rec.wheel_orders.setdefault(stamp, order)
