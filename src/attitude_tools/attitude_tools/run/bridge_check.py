@@ -8,6 +8,10 @@ end only checks the arguments, builds the ROS environment
 ``ros2 run attitude_conformance bridge_check`` with them as ROS parameters; that node
 prints one ``PASS``/``FAIL``/``SKIP <point>: <detail>`` line per contract point and a
 summary. Exit code: 0 every point passed, 1 one failed, 2 bad arguments (or no workspace).
+
+A scenario that declares a reaction wheel array (``wheels.*``) checks a wheel plant: the
+node answers with motor torques on ``/controller/wheel_torque`` and judges the
+``/spacecraft/wheel_states`` too (point ``wheels``; SKIP without wheels).
 """
 
 from __future__ import annotations
@@ -57,8 +61,8 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument(
         "--scenario",
         default=str(DEFAULT_SCENARIO),
-        help="scenario the bridge runs: dt_s, inertia, initial state "
-        "(default scenarios/case1.yaml)",
+        help="scenario the bridge runs: dt_s, inertia, initial state; with wheels.* a wheel "
+        "plant is checked (default scenarios/case1.yaml)",
     )
     parser.add_argument(
         "--timeout-s", type=float, default=60.0, help="wall-time limit of the check, s (default 60)"
