@@ -34,8 +34,11 @@ def test_every_node_gets_its_table_topics_and_no_other_contract_topic():
     contract = {topic.name for topic in t.TOPICS}
     for spec in node_graph.SENSING_NODES:
         got = grants[spec.node_name]
-        assert got["publish"] & contract == set(spec.publishes) | {t.DIAGNOSTICS}
-        assert got["subscribe"] & contract == set(spec.subscribes) | {t.DIAGNOSTICS}
+        wheeled = node_graph.with_wheels(spec, True)  # a wheel run's wiring too
+        publishes = set(spec.publishes) | set(wheeled.publishes)
+        assert got["publish"] & contract == publishes | {t.DIAGNOSTICS}
+        subscribes = set(spec.subscribes) | set(wheeled.subscribes)
+        assert got["subscribe"] & contract == subscribes | {t.DIAGNOSTICS}
     # Who may command the body: the controller alone publishes the torque; only the
     # simulator (the plant) publishes the state, or with sensors the estimator its
     # estimate; only the plant publishes the measurements.

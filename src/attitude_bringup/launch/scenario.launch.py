@@ -59,9 +59,8 @@ def _nodes(context):
     scenario = LaunchConfiguration('scenario')
     time_mode = LaunchConfiguration('time_mode')
     bag_dir = LaunchConfiguration('bag_dir')
-    run_graph = graph.graph(
-        load_scenario(context.launch_configurations['scenario']).sensors is not None
-    )
+    loaded = load_scenario(context.launch_configurations['scenario'])
+    run_graph = graph.graph(loaded.sensors is not None, loaded.wheels is not None)
 
     own_parameters = {
         graph.RECORDER.role: {

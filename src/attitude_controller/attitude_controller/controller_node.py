@@ -29,10 +29,7 @@ lockstep run nor breaks a constraint.
 
 from __future__ import annotations
 
-import random
 from typing import Any
-
-from geometry_msgs.msg import WrenchStamped
 
 from attitude_core.config import node_graph
 from attitude_core.fsw.control.pd import PdGains, commanded_torque
@@ -43,10 +40,8 @@ from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
 from attitude_ros import convert as cv
-from attitude_ros.convert import log_faults, set_vector3
-from attitude_ros.endpoints import message, publisher
+from attitude_ros.convert import log_faults
 from attitude_ros.intake import (
-    Convert,
     attitude_value,
     rate_value,
     subscribe_paired,
@@ -58,7 +53,8 @@ from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard
 from attitude_ros.runner import run
-from attitude_ros.wheel_msgs import WheelOrder, fill_joint_state
+from attitude_ros.torque_out import TorqueOut
+from attitude_ros.wheel_msgs import wheel_inputs
 
 
 class PdControllerNode(StackNode):
@@ -66,37 +62,25 @@ class PdControllerNode(StackNode):
 
     def configure(self) -> None:
         own, self.scenario = declare_scenario_node(self, node_graph.CONTROLLER.parameters)
-        self.drop_fraction = own.fault.drop_torque_fraction
-        self.rng = random.Random(own.fault.seed)
-        self.dropped = 0
         self.gains = PdGains(self.scenario.kp, self.scenario.kd)
-        self.last_stamp: int | None = None  # stamp of the last torque, and the torque
-        self.last_torque: WrenchStamped | None = None
+        self.last_stamp: int | None = None  # stamp of the last torque
         self.first_stamp: int | None = None  # t = 0 of the watchdog's fault times
         array = self.scenario.wheels
-        inputs: list[tuple[str, Convert]] = [
+        wheels = None if array is None else WheelControl(array)
+        self.out = TorqueOut(self, wheels, own.fault.drop_torque_fraction, own.fault.seed)
+        inputs = [
             (c.ATTITUDE, attitude_value),
             (c.ANGULAR_VELOCITY, rate_value),
             (c.TARGET_MRP, target_mrp_value),
             (c.TARGET_RATE, target_rate_value),
+            *wheel_inputs(None if array is None else array.names),
         ]
-        self.wheels: WheelControl | None = None
-        if array is not None:  # ... and the wheel state
-            self.wheels, self.wheel_names = WheelControl(array), array.names
-            inputs.append((c.WHEEL_STATES, WheelOrder(array.names).speeds_and_effort))
-            self.speeds = array.initial_speed.copy()  # the last measured
-            self.pub_wheels = publisher(self, c.WHEEL_TORQUE)
-            self.out_wheels = message(c.WHEEL_TORQUE)  # refilled for each stamp
-            self.last_wheels = message(c.WHEEL_TORQUE)  # the last sent (a re-send)
         # sigma_BN, omega_B, sigma_RN, omega_t (and the wheel state) of one stamp
         self.intake = StampPairing(len(inputs), StampGate(self.scenario.sim_time_s))
         wired = node_graph.with_wheels(self.spec, array is not None)
         self.guard = RunGuard(
             self, wired, self.scenario, self.stop, stamp_ns=lambda: self.last_stamp or 0
         )
-        self.pub_torque = publisher(self, c.TORQUE)
-        self.out_torque = message(c.TORQUE)  # refilled for each stamp
-        self.out_tick = message(c.TORQUE)  # refilled for each tick answered
         self.outage = self.new_outage()
         self.mode: FdirMode | None = None
         self.clock = LoopClock(self, self.scenario.dt_s, self.on_tick, self.on_rebase)
@@ -106,7 +90,7 @@ class PdControllerNode(StackNode):
             self.intake,
             inputs,
             self.answer,
-            lambda: self.publish(self.last_torque, resend=True),  # lockstep: the same again
+            self.out.resend,  # a lockstep re-send: the same answer again
         )
         self.get_logger().info(
             f"scenario '{self.scenario.name}': Kp = {self.scenario.kp_over_j} J, "
@@ -135,22 +119,9 @@ class PdControllerNode(StackNode):
         log_faults(self.get_logger(), ended, "states back: ")
         u = commanded_torque(self.gains, sigma_bn, omega_b, sigma_t, omega_t, limit)
         u = u if self.active and not self.outage.safe else 0.0 * u
-        if self.wheels is not None:  # the motor torques, and the body torque they make
-            self.speeds, effort = inputs[4]
-            wheel = self.wheels.command(u, self.speeds, effort)
-            u = wheel.body_torque_b
-            self.fill_wheels(self.out_wheels, stamp_msg, wheel.motor_torque_nm)
-        self.outage.answered(t, sigma_t, u)
-        out = self.out_torque
-        out.header.stamp = stamp_msg
-        set_vector3(out.wrench.torque, u)
-        self.publish(out)
+        u = self.out.answer(stamp_msg, u, inputs[4] if len(inputs) > 4 else None)
+        self.outage.answered(t, sigma_t, u)  # the body torque sent (with wheels, theirs)
         self.last_stamp = stamp
-        self.last_torque = out
-
-    def fill_wheels(self, msg: Any, stamp_msg: Any, motor_torque_nm: Any) -> None:
-        msg.header.stamp = stamp_msg
-        fill_joint_state(msg, self.wheel_names, None, motor_torque_nm)
 
     def on_tick(self, now: int) -> None:
         """The watchdog's answer to a tick when the state is stale (not the target)."""
@@ -172,13 +143,7 @@ class PdControllerNode(StackNode):
     def send_tick(self, stamp_ns: int, torque_b: Any) -> None:
         """A torque of its own, stamped with a tick of the stack's clock (with wheels,
         allocated at the last measured wheel speeds)."""
-        cv.set_stamp(self.out_tick.header.stamp, stamp_ns)
-        if self.wheels is not None:
-            wheel = self.wheels.allocate(torque_b, self.speeds)
-            torque_b = wheel.body_torque_b
-            self.fill_wheels(self.out_wheels, self.out_tick.header.stamp, wheel.motor_torque_nm)
-        set_vector3(self.out_tick.wrench.torque, torque_b)
-        self.publish(self.out_tick)
+        self.out.answer(cv.stamp_msg(stamp_ns), torque_b, tick=True)
 
     @property
     def takes_input(self) -> bool:
@@ -190,21 +155,6 @@ class PdControllerNode(StackNode):
         self.get_logger().info("deactivated: zero torque from now on")
         if self.last_stamp is not None and not self.clock.lockstep:
             self.send_tick(self.clock.now_ns(), (0.0, 0.0, 0.0))  # a plant holds the last
-
-    def publish(self, out: WrenchStamped | None, resend: bool = False) -> None:
-        """Send ``out`` (and with wheels the motor torques: those just filled, or on a
-        ``resend`` the last sent again)."""
-        if out is None:
-            return
-        if self.drop_fraction and self.rng.random() < self.drop_fraction:
-            self.dropped += 1
-            return
-        self.pub_torque.publish(out)
-        if self.wheels is not None:
-            if not resend:
-                self.last_wheels.header.stamp = self.out_wheels.header.stamp
-                fill_joint_state(self.last_wheels, self.wheel_names, None, self.out_wheels.effort)
-            self.pub_wheels.publish(self.last_wheels)
 
 
 def main(args: list[str] | None = None) -> int:

@@ -37,30 +37,32 @@ from typing import Any
 from std_msgs.msg import String
 
 from attitude_core.config import node_graph
-from attitude_core.contract.topics import NS_PER_S
 from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.runtime.planner_stepper import PlannerStepper
 from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
-from attitude_ros import cdr
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     DiagnosticsOut,
     fault_diagnostics,
     log_events,
     log_faults,
-    reject,
     set_vector3,
     stamp_msg,
 )
-from attitude_ros.endpoints import message, publisher, subscription
-from attitude_ros.intake import Convert, attitude_value, rate_value, subscribe_paired
+from attitude_ros.endpoints import message, publisher
+from attitude_ros.intake import (
+    attitude_value,
+    rate_value,
+    subscribe_paired,
+    subscribe_wheel_torque,
+)
 from attitude_ros.loop_clock import LoopClock
 from attitude_ros.node_base import StackNode
 from attitude_ros.params import declare_scenario_node
 from attitude_ros.run_guard import RunGuard, diagnostics_events
 from attitude_ros.runner import run
-from attitude_ros.wheel_msgs import WheelOrder
+from attitude_ros.wheel_msgs import wheel_inputs
 
 
 class FepfPlannerNode(StackNode):
@@ -70,17 +72,12 @@ class FepfPlannerNode(StackNode):
         _, sc = declare_scenario_node(self, node_graph.PLANNER.parameters)
         self.scenario = sc
         self.stepper = PlannerStepper(sc)  # prepares the guidance: before the first state
-        state: list[tuple[str, Convert]] = [
-            (c.ATTITUDE, attitude_value),
-            (c.ANGULAR_VELOCITY, rate_value),
-        ]
-        self.wheel_order = None if sc.wheels is None else WheelOrder(sc.wheels.names)
-        if self.wheel_order is not None:  # ... and the wheel state of the stamp
-            state.append((c.WHEEL_STATES, self.wheel_order.speeds_and_effort))
-        self.intake = StampPairing(len(state), StampGate(sc.sim_time_s))  # sigma_BN, omega_B
-        stamp_ns = lambda: self.stepper.last_stamp_ns
-        wired = node_graph.with_wheels(self.spec, sc.wheels is not None)
-        self.guard = RunGuard(self, wired, sc, self.stop, stamp_ns=stamp_ns)
+        names = None if sc.wheels is None else sc.wheels.names
+        state = [(c.ATTITUDE, attitude_value), (c.ANGULAR_VELOCITY, rate_value)]
+        state += wheel_inputs(names)  # ... and the stamp's wheel state
+        self.intake = StampPairing(len(state), StampGate(sc.sim_time_s))
+        wired, stepper = node_graph.with_wheels(self.spec, bool(names)), self.stepper
+        self.guard = RunGuard(self, wired, sc, self.stop, lambda: stepper.last_stamp_ns)
         self.pub_mrp = publisher(self, c.TARGET_MRP)
         self.pub_rate = publisher(self, c.TARGET_RATE)
         self.pub_status = publisher(self, c.PLANNER_STATUS)
@@ -93,10 +90,8 @@ class FepfPlannerNode(StackNode):
         self.out_margin = message(c.KEEP_OUT_MARGIN)
         self.out_diag: Any = None
         self.diag = DiagnosticsOut()  # the one /diagnostics message, refilled each step
-        if self.wheel_order is not None:  # which wheels answer: the controller's commands
-            self.guard.watch(
-                c.WHEEL_TORQUE, subscription(self, c.WHEEL_TORQUE, self.on_wheel_torque, raw=True)
-            )
+        if names is not None:  # which wheels answer: the controller's commands
+            subscribe_wheel_torque(self, self.guard, self.intake, names, self.on_wheel_torque)
         # A lockstep re-send (same state) gets the same answer again: self.publish.
         subscribe_paired(self, self.guard, self.intake, state, self.answer, self.publish)
         self.clock = LoopClock(self, sc.dt_s, self.on_tick, self.stepper.rebase_watchdog)
@@ -130,29 +125,12 @@ class FepfPlannerNode(StackNode):
             self.get_logger().error(f"status {tick.status}: no measured state; zero torque")
             self.pub_status.publish(String(data=tick.status.value))
 
-    def on_wheel_torque(self, data: bytes) -> None:
-        """The controller's motor torques (judged against the next wheel state)."""
-        if not self.takes_input or not self.guard.admit(c.WHEEL_TORQUE):
-            return
-        assert self.wheel_order is not None
-        try:
-            sec, nanosec, _, values = cdr.joint_state(data)
-        except cdr.CdrError as err:
-            self.intake.bad_values += 1
-            reject(self, c.WHEEL_TORQUE, f"malformed message: {err}", count=self.rejected)
-            return
-        u, reason = self.wheel_order.array(values, "effort")
-        if u is None:
-            self.intake.bad_values += 1
-            reject(self, c.WHEEL_TORQUE, reason or "", count=self.rejected)
-            return
-        log_events(self.get_logger(), self.stepper.wheel_command(sec * NS_PER_S + nanosec, u))
+    def on_wheel_torque(self, stamp: int, motor_torque_nm: Any) -> None:
+        log_events(self.get_logger(), self.stepper.wheel_command(stamp, motor_torque_nm))
 
     def answer(self, stamp: int, stamp_msg: Any, state: tuple[Any, ...]) -> None:
-        sigma_bn, omega_b = state[:2]
-        wheels = state[2] if len(state) > 2 else None
-        at = self.clock.state_time_ns(stamp)
-        step = self.stepper.step(stamp, sigma_bn, omega_b, self.active, at, wheels)
+        at, wheels = self.clock.state_time_ns(stamp), state[2] if len(state) > 2 else None
+        step = self.stepper.step(stamp, state[0], state[1], self.active, at, wheels)
         log_events(self.get_logger(), step.logs)
         for fault in step.faults:
             self.pub_diag.publish(fault_diagnostics(stamp_msg, fault))

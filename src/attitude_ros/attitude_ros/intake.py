@@ -27,6 +27,7 @@ from attitude_ros.cdr import FLOATS, CdrError, joint_state, stamped
 from attitude_ros.convert import bad_frame_id, bad_quaternion_xyzw, mrp_from_xyzw, reject
 from attitude_ros.endpoints import subscription
 from attitude_ros.run_guard import RunGuard
+from attitude_ros.wheel_msgs import WheelOrder
 
 __all__ = [
     "Convert",
@@ -35,6 +36,7 @@ __all__ = [
     "rate_value",
     "target_mrp_value",
     "target_rate_value",
+    "subscribe_wheel_torque",
 ]
 
 Convert = Callable[[Any], tuple[Any, str | None]]
@@ -130,3 +132,27 @@ def _callback(
             on_complete(offer.stamp_ns, Time(sec=sec, nanosec=nanosec), offer.values)
 
     return on_message
+
+
+def subscribe_wheel_torque(
+    node: Any,
+    guard: RunGuard,
+    pairing: StampPairing,
+    names: Sequence[str],
+    on_command: Callable[[int, Any], None],
+) -> None:
+    """Subscribe ``/controller/wheel_torque`` (not paired): ``on_command(stamp_ns,
+    motor torques in the order of ``names``)``; refused messages counted in ``pairing``."""
+    order = WheelOrder(names)
+
+    def on_message(data: bytes) -> None:
+        if not node.takes_input or not guard.admit(c.WHEEL_TORQUE):
+            return
+        stamp, _, u, reason = order.command(data)
+        if u is None:
+            pairing.bad_values += 1
+            reject(node, c.WHEEL_TORQUE, reason or "", count=pairing.rejected)
+        else:
+            on_command(stamp, u)
+
+    guard.watch(c.WHEEL_TORQUE, subscription(node, c.WHEEL_TORQUE, on_message, raw=True))

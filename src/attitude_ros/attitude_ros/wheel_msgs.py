@@ -5,6 +5,7 @@ arrays in the scenario's wheel order, and back.
 A message is read by wheel name, in any order: every declared wheel present once, no
 other name, and each array used (``velocity``, ``effort``) as long as ``name``; the
 values finite. Anything else is refused with the reason, never guessed.
+:class:`WheelTorqueOut` is the controller's wheel output.
 """
 
 from __future__ import annotations
@@ -15,9 +16,12 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from attitude_ros.cdr import JointValues
+from attitude_core.contract.topics import WHEEL_STATES, WHEEL_TORQUE
+from attitude_core.fsw.control.wheel_control import WheelControl
+from attitude_ros.cdr import CdrError, JointValues, joint_state
+from attitude_ros.endpoints import message, publisher
 
-__all__ = ["WheelOrder", "fill_joint_state"]
+__all__ = ["WheelOrder", "WheelTorqueOut", "fill_joint_state", "wheel_inputs"]
 
 _Floats = npt.NDArray[np.float64]
 
@@ -58,6 +62,16 @@ class WheelOrder:
             return None, f"{field}: not finite ({out.tolist()})"
         return out, None
 
+    def command(self, data: bytes) -> tuple[int, str, _Floats | None, str | None]:
+        """A serialized ``/controller/wheel_torque``: ``(stamp_ns, frame_id, effort,
+        None)``, or ``(stamp_ns, frame_id, None, reason)`` (stamp 0 when unreadable)."""
+        try:
+            sec, nanosec, frame_id, values = joint_state(data)
+        except CdrError as err:
+            return 0, "", None, f"malformed message: {err}"
+        effort, reason = self.array(values, "effort")
+        return sec * 1_000_000_000 + nanosec, frame_id, effort, reason
+
     def speeds_and_effort(
         self, values: JointValues
     ) -> tuple[tuple[_Floats, _Floats] | None, str | None]:
@@ -79,3 +93,44 @@ def fill_joint_state(
         msg.name = list(names)
     msg.velocity = [] if velocity is None else np.asarray(velocity, dtype=float).tolist()
     msg.effort = np.asarray(effort, dtype=float).tolist()
+
+
+def wheel_inputs(names: Sequence[str] | None) -> list[tuple[str, Any]]:
+    """The paired input of a node reading the wheel state (none without wheels)."""
+    if names is None:
+        return []
+    return [(WHEEL_STATES, WheelOrder(names).speeds_and_effort)]
+
+
+class WheelTorqueOut:
+    """The controller's ``/controller/wheel_torque``: the motor torques of ``control``
+    (:class:`attitude_core.fsw.control.wheel_control.WheelControl`) at the last measured
+    wheel speeds, filled per answer and sent beside the body torque."""
+
+    def __init__(self, node: Any, control: WheelControl) -> None:
+        self.control = control
+        self.names = control.array.names
+        self.speeds: _Floats = control.array.initial_speed.copy()  # the last measured
+        self.pub = publisher(node, WHEEL_TORQUE)
+        self.out = message(WHEEL_TORQUE)  # refilled for each answer
+        self.sent = message(WHEEL_TORQUE)  # the last sent (a lockstep re-send)
+
+    def answer(self, stamp_msg: Any, tau_b: npt.ArrayLike, wheel_state: Any = None) -> _Floats:
+        """Fill the motor torques for ``tau_b`` (``wheel_state``: the stamp's measured
+        speeds and applied torques; None: a tick, at the last speeds); the body torque
+        they make."""
+        if wheel_state is None:
+            cmd = self.control.allocate(tau_b, self.speeds)
+        else:
+            self.speeds, applied = wheel_state
+            cmd = self.control.command(tau_b, self.speeds, applied)
+        self.out.header.stamp = stamp_msg
+        fill_joint_state(self.out, self.names, None, cmd.motor_torque_nm)
+        return cmd.body_torque_b
+
+    def publish(self, resend: bool = False) -> None:
+        """Send the torques just filled (``resend``: the last sent, again)."""
+        if not resend:
+            self.sent.header.stamp = self.out.header.stamp
+            fill_joint_state(self.sent, self.names, None, self.out.effort)
+        self.pub.publish(self.sent)

@@ -38,9 +38,12 @@ PARAMETER_SERVICES = (
 
 
 def permissions(spec: node_graph.NodeSpec[Any]) -> tuple[list[str], list[str]]:
-    """(published, subscribed) topics of one node, sorted."""
-    publish = set(spec.publishes) | {t.DIAGNOSTICS, "/rosout", "/parameter_events"}
-    subscribe = set(spec.subscribes) | {t.DIAGNOSTICS}
+    """(published, subscribed) topics of one node, sorted: with and without wheels
+    (:data:`attitude_core.config.node_graph.WHEELED`)."""
+    wheeled = node_graph.with_wheels(spec, True)
+    publish = set(spec.publishes) | set(wheeled.publishes)
+    publish |= {t.DIAGNOSTICS, "/rosout", "/parameter_events"}
+    subscribe = set(spec.subscribes) | set(wheeled.subscribes) | {t.DIAGNOSTICS}
     return sorted(publish), sorted(subscribe)
 
 

@@ -126,23 +126,15 @@ class RigidBodySimNode(StackNode):
 
     def on_wheel_torque(self, data: bytes) -> None:
         """The motor torques of the wheels, by name, in the scenario's order."""
-        if not self.active or not self.guard.admit(c.WHEEL_TORQUE):
+        if not self.active or not self.guard.admit(c.WHEEL_TORQUE) or not self.wheel_order:
             return
-        assert self.wheel_order is not None
-        try:
-            sec, nanosec, frame_id, values = cdr.joint_state(data)
-        except cdr.CdrError as err:
-            decision = self.stepper.reject(f"malformed message: {err}")
-        else:
-            u, reason = self.wheel_order.array(values, "effort")
-            if u is None:
-                decision = self.stepper.reject(reason or "")
-            else:
-                stamp = sec * 1_000_000_000 + nanosec
-                decision = self.stepper.on_torque(time.monotonic(), stamp, u, frame_id)
-        if decision.action == Action.REJECT:
-            cv.reject(self, c.WHEEL_TORQUE, decision.reason or "", count=self.stepper.rejected)
-        self.do(decision)
+        stamp, frame_id, u, reason = self.wheel_order.command(data)
+        now = time.monotonic()
+        d = self.stepper.on_torque(now, stamp, u, frame_id) if u is not None else None
+        d = d or self.stepper.reject(reason or "")
+        if d.action == Action.REJECT:
+            cv.reject(self, c.WHEEL_TORQUE, d.reason or "", count=self.stepper.rejected)
+        self.do(d)
 
     def do(self, d: Decision) -> None:
         """Publish and log what the stepper decided; the state first (the loop waits).
