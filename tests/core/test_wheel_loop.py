@@ -108,3 +108,31 @@ def test_external_torques_need_wheels():
         loads_scenario(case1 + "    disturbances.constant_torque_nm: [1.0e-5, 0.0, 0.0]\n")
     assert info.value.key == "disturbances.constant_torque_nm"
     assert "wheels" in info.value.reason
+
+
+def test_wheels_with_no_momentum_free_make_the_slew_infeasible_and_hold_the_body():
+    import re
+
+    saturated = re.sub(r"initial_speed_rpm: [-0-9.]+", "initial_speed_rpm: 5995.0", PYRAMID)
+    run = run_closed_loop(
+        loads_scenario(saturated.replace("sim_time_s: 400.0", "sim_time_s: 60.0"))
+    )
+    summary = summarize(run).to_json()
+    assert summary["planner_infeasible"] and not summary["reached"]
+    assert "no momentum" in summary["infeasible_reason"]
+    assert summary["peak_wheel_speed_frac"] < 1.0  # held: no wheel pushed past its limit
+    assert np.abs(run.omega_b).max() < 1e-9  # the body never left its start
+
+
+def test_wheels_left_spanning_two_axes_end_the_slew_as_infeasible():
+    import re
+
+    two_fail = re.sub(r"(\n(\s+)rw([34]):\n)", r"\1\2  fails_at_s: 20.0\n", PYRAMID)
+    run = run_closed_loop(loads_scenario(two_fail.replace("sim_time_s: 400.0", "sim_time_s: 60.0")))
+    summary = summarize(run).to_json()
+    assert (
+        summary["planner_infeasible"]
+        and "span 2 of the 3 body axes" in summary["infeasible_reason"]
+    )
+    assert summary["min_margin_deg"] > 0.0
+    assert np.all(run.wheels.applied_nm[run.t >= 20.0][:, 2:] == 0.0)

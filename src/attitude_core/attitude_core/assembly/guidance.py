@@ -16,8 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from attitude_core.assembly.guidance_limits import scenario_limits
+from attitude_core.assembly.guidance_limits import scenario_limits, wheel_infeasibility
 from attitude_core.config.scenario import Scenario
+from attitude_core.contract.status import PlannerStatus
 from attitude_core.fsw.guidance.fepf import FepfPlanner, load_planner_fis
 from attitude_core.fsw.guidance.fuzzy import MamdaniFis, lookup_table
 from attitude_core.fsw.guidance.guidance import Guidance
@@ -139,7 +140,7 @@ def guidance_from_scenario(
     if initial_route is None and sky_guide is not None:
         eta = scenario_eta_s(scenario, planner.sigma_t)
         initial_route = sky_guide.plan_route(0.0, eta, planner.sigma_t, planner.goal)
-    return Guidance(
+    guidance = Guidance(
         planner,
         scenario_limits(scenario, planner.sigma_t),
         scenario.guidance_arrival.attitude_tol_deg,
@@ -151,6 +152,10 @@ def guidance_from_scenario(
         sky_guide,
         scenario.knowledge,
     )
+    why = wheel_infeasibility(scenario, planner.sigma_t)
+    if why is not None and guidance.status is not PlannerStatus.INFEASIBLE:
+        guidance.declare_infeasible(why)
+    return guidance
 
 
 def moving_sky_guide(scenario: Scenario, buffer_deg: float) -> SkyGuide | None:

@@ -22,7 +22,15 @@ from attitude_core.fsw.guidance.profile_limits import GuidanceLimits
 from attitude_core.fsw.guidance.wheel_envelope import WheelEnvelope, wheel_envelope
 from attitude_core.models.mrp import Vec3Like, relative
 
-__all__ = ["DETOUR_FACTOR", "slew_axis", "slew_envelope", "scenario_limits", "WheelBudget"]
+__all__ = [
+    "DETOUR_FACTOR",
+    "MIN_WHEEL_RATE_RAD_S",
+    "slew_axis",
+    "slew_envelope",
+    "scenario_limits",
+    "wheel_infeasibility",
+    "WheelBudget",
+]
 
 DETOUR_FACTOR = 1.5
 """The rotation a slew is budgeted for: its principal angle times this (the detours
@@ -56,6 +64,41 @@ def slew_envelope(
     return wheel_envelope(array, scenario.inertia_kgm2, axis, rotation, speeds, use)
 
 
+MIN_WHEEL_RATE_RAD_S = 1.0e-4
+"""Below this rate cap (0.0057 deg/s: half a turn in nine hours) the wheels have no
+momentum free for the slew: it is infeasible."""
+
+
+def wheel_infeasibility(
+    scenario: Scenario,
+    sigma_bn: Vec3Like,
+    speeds_rad_s: npt.ArrayLike | None = None,
+    usable: npt.ArrayLike | None = None,
+) -> str | None:
+    """Why the wheels (``usable``, at ``speeds_rad_s``) cannot fly the slew from
+    ``sigma_bn`` safely, or None: their spin axes no longer span the body's three axes
+    (the body cannot be held about the rest), or no momentum is free for a slew rate."""
+    array = scenario.wheels
+    if array is None:
+        return None
+    use = np.ones(len(array), dtype=bool) if usable is None else np.asarray(usable, dtype=bool)
+    names = [n for n, u in zip(array.names, use, strict=True) if u]
+    rank = int(np.linalg.matrix_rank(array.axes[:, use], tol=1e-6)) if use.any() else 0
+    if rank < 3:
+        return (
+            f"wheels: the usable wheels {names} span {rank} of the 3 body axes: "
+            "the body cannot be controlled about the others"
+        )
+    env = slew_envelope(scenario, sigma_bn, speeds_rad_s, use)
+    if env.rate_rad_s < MIN_WHEEL_RATE_RAD_S or env.accel_rad_s2 <= 0.0:
+        return (
+            f"wheels: {env.momentum_free_nms:.3g} N m s free about the slew axis "
+            f"(rate cap {env.rate_rad_s:.3g} rad/s, below {MIN_WHEEL_RATE_RAD_S:g}): "
+            "the wheels' speeds leave no momentum for the slew"
+        )
+    return None
+
+
 def scenario_limits(scenario: Scenario, sigma_bn: Vec3Like) -> GuidanceLimits:
     """The profile bounds of ``scenario``'s slew from ``sigma_bn``."""
     if scenario.wheels is None:
@@ -80,18 +123,24 @@ class WheelBudget:
         self.array = scenario.wheels
         self.watch = WheelWatch(scenario.wheels)
         self.started = False
+        self.infeasible: str | None = None  # why the wheels left cannot fly the slew
 
     def measured(
         self, sigma_bn: Vec3Like, speeds: npt.ArrayLike, applied_nm: npt.ArrayLike
     ) -> GuidanceLimits | None:
         """A measured state with its wheel state: new bounds for the rest of the slew,
-        or None (unchanged)."""
+        or None (unchanged; or :attr:`infeasible` says why the wheels left cannot fly
+        it)."""
         first, self.started = not self.started, True
         taken_out = self.watch.measured(speeds, applied_nm)
         same_speeds = np.array_equal(np.asarray(speeds, dtype=float), self.array.initial_speed)
         if not taken_out and not (first and not same_speeds):
             return None
-        env = slew_envelope(self.scenario, sigma_bn, speeds, self.watch.usable)
+        usable = self.watch.usable
+        self.infeasible = wheel_infeasibility(self.scenario, sigma_bn, speeds, usable)
+        if self.infeasible is not None:
+            return None
+        env = slew_envelope(self.scenario, sigma_bn, speeds, usable)
         return GuidanceLimits.from_wheels(self.scenario.inertia_kgm2, env)
 
     def commanded(self, motor_torque_nm: npt.ArrayLike, speeds: npt.ArrayLike) -> None:

@@ -63,6 +63,8 @@ def run_wheel_loop(scenario: Scenario) -> RunResult:
         limits = budget.measured(s_m, speed[k], effort)
         if limits is not None:  # re-budget the slew on the wheels left
             guidance.limits = limits
+        elif budget.infeasible and guidance.reason != budget.infeasible:
+            guidance.declare_infeasible(budget.infeasible)  # the target holds
         out = guidance.update(t, s_m, w_m).target
         step_s[k] = time.perf_counter() - c0
         sigma_t[k], omega_t[k] = out.sigma_t, out.omega_t

@@ -66,7 +66,8 @@ def wheel_figures(run: RunResult) -> dict[str, Any]:
 
 
 def wheel_time_bound_s(run: RunResult, rotation_rad: float) -> float | None:
-    """The momentum-limited rest-to-rest bound of ``rotation_rad`` (None without wheels)."""
+    """The momentum-limited rest-to-rest bound of ``rotation_rad`` (None without wheels,
+    or when the wheels leave no momentum or torque about the slew's axis)."""
     sc = run.scenario
     if sc.wheels is None:
         return None
@@ -81,4 +82,6 @@ def wheel_time_bound_s(run: RunResult, rotation_rad: float) -> float | None:
         np.ones(len(sc.wheels)),
     )
     env = slew_envelope(sc, sc.initial_mrp)
+    if float(rate[0]) <= 0.0 or env.accel_rad_s2 <= 0.0:
+        return None  # no momentum or torque about the axis: no slew, no bound
     return time_bound_s(rotation_rad, float(rate[0]), env.accel_rad_s2)

@@ -209,6 +209,10 @@ class PlannerStepper:
             self.wheels.commanded(self.commands.pop(before), self.wheel_states[before][0])
         usable = self.wheels.watch.usable.copy()
         limits = self.wheels.measured(sigma, speeds, effort)
+        why = self.wheels.infeasible
+        if limits is None and why is not None and self.guidance.reason != why:
+            self.guidance.declare_infeasible(why)
+            logs.append(("error", f"infeasible: {why}"))
         if limits is None:
             return
         self.guidance.limits = limits

@@ -223,6 +223,14 @@ class Guidance(RouteUpdates, TimeScaling, SkyWatch, ArrivalJudge):
                 self.status = PlannerStatus.INFEASIBLE
                 planner.hold(PlannerStatus.INFEASIBLE)  # the target holds the start
 
+    def declare_infeasible(self, reason: str) -> None:
+        """The slew cannot be flown (e.g. the wheels left cannot control the body, or
+        have no momentum free for it): status ``infeasible`` with ``reason``, the target
+        held where it is."""
+        self.reason = reason
+        self.status = PlannerStatus.INFEASIBLE
+        self.planner.hold(PlannerStatus.INFEASIBLE)
+
     def resume(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> None:
         """Go on from the measured state after a gap in the states (the state watchdog,
         :mod:`attitude_core.fsw.fdir.state_watchdog`), before :meth:`update` of the state
