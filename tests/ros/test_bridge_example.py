@@ -3,14 +3,17 @@
 Its SciPy rigid body against the project's RK4/MRP ``RigidBody``, and a lockstep run of the
 bridge process with the real planner and controller processes over DDS (a reserved
 ``ROS_DOMAIN_ID``, localhost only), observed by an in-process probe and compared with the
-offline closed loop.
+offline closed loop. As a wheel plant (``case1_rw_pyramid``) behind ``attitude-run
+--plant external``, its recorded run is the offline wheel loop's.
 """
 
+import json
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_helpers import run_with_bridge
 from support import needs_workspace
 
 from attitude_core.config import node_graph
@@ -20,6 +23,7 @@ from attitude_core.contract.topics import ANGULAR_VELOCITY, APPLIED_TORQUE, ATTI
 from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.models.mrp import mrp_from_quat, principal_angle, quat_from_mrp, relative
 from attitude_core.world.rigid_body import RigidBody
+from attitude_tools.bag.run_record import run_from_bag
 from attitude_tools.run.cli import NodeGraph, ros_environment
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -225,3 +229,28 @@ def test_lockstep_bridge_with_the_real_planner_and_controller(lockstep_run):
     torque = np.array([applied[s][1] for s in expected[:-1]])
     assert np.abs(torque - offline.torque_b[:n]).max() < 1e-5  # no held or zero step
     assert principal_angle(relative(offline.sigma_bn[n], offline.sigma_bn[0])) > 0.05  # moved
+
+
+def test_wheel_bridge_with_the_real_graph_is_the_offline_wheel_loop(tmp_path, ros_env):
+    """The example bridge as a wheel plant (``case1_rw_pyramid``: its own RK4 on
+    quaternions) behind ``attitude-run --plant external`` (recorder, planner and wheeled
+    controller over DDS, lockstep): the recorded run is the offline wheel loop's (MRPs)."""
+    path = ROOT / "scenarios" / "case1_rw_pyramid.yaml"
+    out = tmp_path / "run"
+    env = ros_env(ros_environment())
+    run, bridge_code = run_with_bridge(path, out, env, tmp_path / "bridge.log")
+    assert run.returncode == 0, run.stdout[-2000:] + run.stderr[-2000:]
+    assert bridge_code == 0, (tmp_path / "bridge.log").read_text()[-2000:]
+    rec = run_from_bag(str(out / "bag")).run
+    offline = run_closed_loop(load_scenario(path))
+    assert rec.wheels is not None and offline.wheels is not None
+    n = len(rec.t)  # the run ends --settle-s after the planner's arrived
+    assert n > 2000
+    np.testing.assert_allclose(rec.t, offline.t[:n], rtol=0.0, atol=1e-9)
+    angle = max(_angle(a, b) for a, b in zip(rec.sigma_bn, offline.sigma_bn[:n], strict=True))
+    assert angle < 1e-8, angle
+    np.testing.assert_allclose(rec.omega_b, offline.omega_b[:n], rtol=0.0, atol=1e-10)
+    speeds, speeds_offline = rec.wheels.speed_rad_s, offline.wheels.speed_rad_s[:n]
+    np.testing.assert_allclose(speeds, speeds_offline, rtol=0.0, atol=1e-8)
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["t_reach_s"] is not None and summary["momentum_error_nms"] < 1e-9
