@@ -33,8 +33,9 @@ from attitude_ros.params import declare_node_parameters
 from . import loop, verdict
 from .bridge_process import start_bridge
 from .driver import Driver, wheel_order
+from .message_io import sample_of, wheel_command
 from .qos_probe import QosProbe
-from .record import JointSample, Recording, Sample, Setup
+from .record import Recording, Setup
 from .sampling import Sampler, Torques
 from .watch import Watch
 
@@ -73,14 +74,6 @@ PARAMETERS = NodeParameters(
     scenario=None,
 )
 PARAMETERS_SOURCE = "node 'bridge_check' parameters"
-
-
-def values(name: str, msg: Any) -> tuple[float, ...]:
-    """The numbers of a state or applied-torque message, as recorded."""
-    if name == c.ATTITUDE:
-        q = msg.quaternion
-        return (q.x, q.y, q.z, q.w)
-    return tuple(cv.vector3(msg.wrench.torque if name == c.APPLIED_TORQUE else msg.vector))
 
 
 class BridgeCheckNode(loop.CheckNode):
@@ -127,33 +120,15 @@ class BridgeCheckNode(loop.CheckNode):
 
     def on_message(self, name: str, msg: Any) -> None:
         now = time.monotonic()
-        sample: Sample | JointSample
-        if name == c.CLOCK:
-            sample = Sample(cv.stamp_ns(msg.clock), "", (), now)
-        elif name == c.WHEEL_STATES:
-            sample = JointSample(
-                cv.stamp_ns(msg.header.stamp),
-                msg.header.frame_id,
-                tuple(msg.name),
-                tuple(float(x) for x in msg.velocity),
-                tuple(float(x) for x in msg.effort),
-                now,
-            )
-        else:
-            stamp = cv.stamp_ns(msg.header.stamp)
-            sample = Sample(stamp, msg.header.frame_id, values(name, msg), now)
+        sample = sample_of(name, msg, now)
         self.send(self.sampler.heard(name, sample), now)
 
     def send(self, torques: Torques, now: float) -> None:
         for stamp, u in torques:
-            order = None
-            body = u
+            order, body = None, u
             if self.wheels is not None:  # u: the motor torques, in the scenario's order
                 order = wheel_order(self.driver.index.get(stamp, 0), len(self.wheels))
-                wheel = message(c.WHEEL_TORQUE)
-                cv.set_stamp(wheel.header.stamp, stamp)
-                wheel.name = [self.wheels.names[j] for j in order]
-                wheel.effort = [float(u[j]) for j in order]
+                wheel = wheel_command(self.wheels.names, u, order, stamp)
                 self.pubs[c.WHEEL_TORQUE].publish(wheel)
                 body = self.wheels.body_torque_b(u)
             msg = message(c.TORQUE)
