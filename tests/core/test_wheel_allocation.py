@@ -125,3 +125,25 @@ def test_any_array_any_torque(axes, max_torques, tau, usable):
     # to the LP's feasibility tolerance (HiGHS, 1e-7 relative): a direction 1e-9 off a
     # single wheel's axis has a reach of 0 exactly but is within its tolerance of one
     np.testing.assert_allclose(a.achieved_b, expected * d, atol=1e-8)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4),
+    st.lists(st.floats(-0.2, 0.2), min_size=3, max_size=3),
+    st.sampled_from([0.01, 0.1, 0.5]),
+)
+def test_with_the_step_no_wheel_is_commanded_past_its_speed_limit(fractions, tau, dt):
+    array = pyramid()
+    speeds = np.asarray(fractions) * array.max_speed
+    lo, hi = wheel_bounds(array, speeds, [True] * 4, dt)
+    check_bounds(np.zeros(4), lo, hi)  # zero torque is always allowed
+    u = allocate(array, np.asarray(tau), lo, hi).motor_torque_nm
+    check_bounds(u, lo, hi)
+    assert np.all(np.abs(u) <= array.max_torque * (1 + 1e-12))
+    after = speeds + u * dt / array.spin_inertia  # the wheels' own spin-up over the step
+    assert np.all(np.abs(after) <= array.max_speed * (1 + 1e-9))
+    # far from the limit, the step's bound is the motor's own
+    far = np.abs(speeds) + array.max_torque * dt / array.spin_inertia < array.max_speed
+    free_lo, free_hi = wheel_bounds(array, speeds, [True] * 4)
+    assert np.all(hi[far] == free_hi[far]) and np.all(lo[far] == free_lo[far])

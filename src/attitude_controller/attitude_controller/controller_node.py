@@ -66,7 +66,7 @@ class PdControllerNode(StackNode):
         self.last_stamp: int | None = None  # stamp of the last torque
         self.first_stamp: int | None = None  # t = 0 of the watchdog's fault times
         array = self.scenario.wheels
-        wheels = None if array is None else WheelControl(array)
+        wheels = None if array is None else WheelControl(array, self.scenario.dt_s)
         self.out = TorqueOut(self, wheels, own.fault.drop_torque_fraction, own.fault.seed)
         inputs = [
             (c.ATTITUDE, attitude_value),

@@ -45,7 +45,7 @@ def run_wheel_loop(scenario: Scenario) -> RunResult:
         scenario.disturbances,
     )
     guidance = guidance_from_scenario(scenario)
-    budget, control = WheelBudget(scenario), WheelControl(array)
+    budget, control = WheelBudget(scenario), WheelControl(array, dt)
     rows, m = n + 1, len(array)
     sigma, omega = np.empty((rows, 3)), np.empty((rows, 3))
     torque, sigma_t, omega_t = np.zeros((rows, 3)), np.empty((rows, 3)), np.zeros((rows, 3))

@@ -44,14 +44,25 @@ class Allocation:
 
 
 def wheel_bounds(
-    array: WheelArray, speeds_rad_s: npt.ArrayLike, usable: npt.ArrayLike
+    array: WheelArray,
+    speeds_rad_s: npt.ArrayLike,
+    usable: npt.ArrayLike,
+    dt_s: float | None = None,
 ) -> tuple[_Floats, _Floats]:
     """``(lower, upper)`` motor torques (N m): ``+-max_torque``, zero on the side that
-    would spin a wheel at its speed limit faster, ``[0, 0]`` for a wheel not ``usable``."""
+    would spin a wheel at its speed limit faster, ``[0, 0]`` for a wheel not ``usable``.
+    With the step ``dt_s``: no more than brings a wheel to its speed limit over the step
+    (``(max_speed -+ Omega) Js / dt``, to first order: the body's own acceleration
+    about the spin axis aside), so a wheel is never commanded past its limit."""
     speeds = np.asarray(speeds_rad_s, dtype=float)
     use = np.asarray(usable, dtype=bool)
-    upper = np.where(use & (speeds < array.max_speed), array.max_torque, 0.0)
-    lower = np.where(use & (speeds > -array.max_speed), -array.max_torque, 0.0)
+    top, bottom = array.max_torque, array.max_torque
+    if dt_s is not None:
+        js_dt = array.spin_inertia / dt_s
+        top = np.minimum(top, np.maximum(array.max_speed - speeds, 0.0) * js_dt)
+        bottom = np.minimum(bottom, np.maximum(array.max_speed + speeds, 0.0) * js_dt)
+    upper = np.where(use & (speeds < array.max_speed), top, 0.0)
+    lower = np.where(use & (speeds > -array.max_speed), -bottom, 0.0)
     return lower, upper
 
 

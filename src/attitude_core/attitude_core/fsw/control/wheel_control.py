@@ -8,7 +8,8 @@ to command (N m, the array's order) and the body torque they make.
 
 Each step first judges the step just flown (:class:`~.wheel_health.WheelHealth`: its
 command, what the wheels applied, their speeds when commanded), then allocates on the
-usable wheels within their bounds (:mod:`.wheel_allocation`).
+usable wheels within their bounds (:mod:`.wheel_allocation`); with the step ``dt_s``
+each wheel's bound also keeps the step from taking it past its speed limit.
 """
 
 from __future__ import annotations
@@ -71,10 +72,12 @@ class WheelWatch:
 
 
 class WheelControl:
-    """Allocation on the usable wheels of ``array`` (all at first)."""
+    """Allocation on the usable wheels of ``array`` (all at first), each wheel's torque
+    bounded so the step of ``dt_s`` does not take it past its speed limit."""
 
-    def __init__(self, array: WheelArray) -> None:
+    def __init__(self, array: WheelArray, dt_s: float | None = None) -> None:
         self.array = array
+        self.dt_s = dt_s
         self.watch = WheelWatch(array)
 
     def command(
@@ -87,7 +90,8 @@ class WheelControl:
 
     def allocate(self, tau_b: npt.ArrayLike, speeds: npt.ArrayLike) -> WheelCommand:
         """The motor torques for ``tau_b`` at ``speeds``, remembered to be judged."""
-        lower, upper = wheel_bounds(self.array, speeds, self.watch.usable)
+        usable = self.watch.usable
+        lower, upper = wheel_bounds(self.array, speeds, usable, self.dt_s)
         u = allocate(self.array, tau_b, lower, upper).motor_torque_nm
         self.watch.commanded(u, speeds)
         return WheelCommand(u, self.array.body_torque_b(u))
