@@ -25,7 +25,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import linprog
 
 __all__ = ["RPM", "WheelSpec", "WheelArray"]
 
@@ -165,6 +164,8 @@ class WheelArray:
 
 def _support(a: _Floats, direction: npt.ArrayLike, lo: _Floats, hi: _Floats) -> float:
     """``max s`` subject to ``a x = s d``, ``lo <= x <= hi`` (0 when only ``s = 0``)."""
+    from scipy.optimize import linprog  # on use: scipy.optimize costs 0.4 s to import
+
     d = np.asarray(direction, dtype=float)
     n = a.shape[1]
     # variables (x, s): maximise s

@@ -180,7 +180,8 @@ class PlannerStepper:
         while len(self.commands) > _KEPT_WHEEL_STEPS:
             del self.commands[min(self.commands)]
         logs: Logs = []
-        if self.wheel_stamp is not None and self.wheel_stamp > stamp_ns and self.guidance:
+        ahead = self.wheel_stamp is not None and self.wheel_stamp > stamp_ns
+        if ahead and self.guidance is not None:
             later = [s for s in self.wheel_states if s > stamp_ns]
             if later and stamp_ns in self.wheel_states:
                 self._judge(stamp_ns, min(later), logs)

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import numpy.typing as npt
-from scipy.optimize import lsq_linear
 
 from attitude_core.models.wheel_array import WheelArray
 
@@ -112,6 +111,8 @@ def allocate(
         u = lo.copy()  # a wheel with no room: at its single bound
         if np.any(free):
             rest = b - g[:, ~free] @ u[~free]
+            from scipy.optimize import lsq_linear  # rare: not imported on every start
+
             fit = lsq_linear(g[:, free], rest, bounds=(lo[free], hi[free]), method="bvls")
             u[free] = np.clip(fit.x, lo[free], hi[free])
     return Allocation(u, array.body_torque_b(u), saturated)
