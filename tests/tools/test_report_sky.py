@@ -7,7 +7,8 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
-from test_report import ROOT, _unit_from_ra_dec, _with_gid, _write_run_bag
+from report_helpers import ROOT
+from test_report_bags import _unit_from_ra_dec, _with_gid, _write_run_bag
 
 from attitude_core.config.scenario_loader import loads_scenario
 from attitude_core.loop.closed_loop import run_closed_loop
