@@ -22,7 +22,9 @@ from attitude_core.contract.diagnostics import KEYS, PlannerDiagnostics
 from attitude_core.contract.faults import FaultKind
 from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
 from attitude_ros import endpoints as endpoints_module
-from attitude_ros.intake import subscribe_paired
+from attitude_ros.intake import subscribe_paired, subscribe_wheel_torque
+from attitude_ros.torque_out import TorqueOut
+from attitude_ros.wheel_msgs import WheelTorqueOut, wheel_inputs
 
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
@@ -272,7 +274,8 @@ def test_node_topics_are_contract_topics(spec):
 
 
 def test_every_contract_topic_has_exactly_one_publisher():
-    published = [name for n in g.NODES for name in n.publishes]
+    # each node as wired for a wheel array: its topics and the wheel topics
+    published = [name for n in g.NODES for name in g.with_wheels(n, True).publishes]
     assert sorted(published) == sorted(TOPIC_NAMES)
 
 
@@ -353,6 +356,13 @@ ENDPOINT_FUNCTIONS = {
 # topic of each (topic, convert) row of ``inputs`` (a tuple, or a name bound to one).
 PAIRED = subscribe_paired.__name__
 PAIRED_INPUTS = list(inspect.signature(subscribe_paired).parameters).index("inputs")
+# attitude_ros helpers that make a node's endpoints: what each call subscribes or publishes.
+HELPERS = {
+    subscribe_wheel_torque.__name__: ("sub", {t.WHEEL_TORQUE}),
+    wheel_inputs.__name__: ("sub", {t.WHEEL_STATES}),  # a paired input row
+    TorqueOut.__name__: ("pub", {t.TORQUE, t.WHEEL_TORQUE}),  # the latter with wheels
+    WheelTorqueOut.__name__: ("pub", {t.WHEEL_TORQUE}),
+}
 
 
 def _topic_constants_in(node: ast.AST) -> set[str]:
@@ -449,12 +459,17 @@ def endpoints(source: str) -> dict[str, set[str]]:
                 else None
             )
             name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", "")
+            if name in HELPERS:
+                helper_kind, helper_topics = HELPERS[name]
+                found[helper_kind] |= helper_topics
             if name == PAIRED:
                 rows = node.args[PAIRED_INPUTS]
                 if isinstance(rows, ast.Name):
                     rows = bound[rows.id]
                 assert isinstance(rows, ast.Tuple | ast.List), f"line {node.lineno}: inputs"
                 for row in rows.elts:
+                    if isinstance(row, ast.Starred):  # rows of a helper (HELPERS), visited
+                        continue
                     assert isinstance(row, ast.Tuple), f"line {row.lineno}: an input row"
                     found["sub"] |= _topics_of_argument(row.elts[0], loops)
             if kind is not None:
@@ -477,13 +492,14 @@ def endpoints(source: str) -> dict[str, set[str]]:
 @pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_sources_subscribe_and_publish_their_table_topics(spec):
     """Over the node's module and the package modules beside it (the simulator's sensor
-    publishers are in their own)."""
+    publishers are in their own), with and without wheels."""
     found: dict[str, set[str]] = {"sub": set(), "pub": set()}
     for path in sorted(module_file(spec).parent.glob("*.py")):
         for kind, names in endpoints(path.read_text(encoding="utf-8")).items():
             found[kind] |= names
-    assert found["sub"] == set(spec.subscribes), spec.role
-    assert found["pub"] == set(spec.publishes), spec.role
+    wheeled = g.with_wheels(spec, True)  # the same sources wire a wheel array's run
+    assert found["sub"] == set(spec.subscribes) | set(wheeled.subscribes), spec.role
+    assert found["pub"] == set(spec.publishes) | set(wheeled.publishes), spec.role
 
 
 @pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)

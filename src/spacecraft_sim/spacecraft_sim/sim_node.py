@@ -61,11 +61,11 @@ class RigidBodySimNode(StackNode):
         self.steady = Clock(clock_type=ClockType.STEADY_TIME)
         stamp = lambda: self.stepper.state_stamp or 0
         self.guard = RunGuard(self, self.wired, sc, lambda code, _: self.finish(code), stamp)
-        self.command = c.WHEEL_TORQUE if wheeled else c.TORQUE
+        self.command = command = c.WHEEL_TORQUE if wheeled else c.TORQUE
         self.wheel_order = None if sc.wheels is None else WheelOrder(sc.wheels.names)
         on_command = self.on_wheel_torque if wheeled else self.on_torque
         self.sub_torque = self.guard.watch(
-            self.command, subscription(self, self.command, on_command, raw=True)
+            command, subscription(self, command, on_command, raw=True)
         )
         self.timer = self.create_timer(LOOP_PERIOD_S, self.on_wait_timer, clock=self.steady)
         self.get_logger().info(
