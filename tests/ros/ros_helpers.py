@@ -10,6 +10,7 @@ from __future__ import annotations
 import shutil
 import signal
 import subprocess
+import sys
 from pathlib import Path
 
 from support import _attitude_run_args
@@ -88,3 +89,26 @@ def listen_like_a_recorder(node, on_state, depth: int = 10) -> None:
     for name in (ANGULAR_VELOCITY, TARGET_MRP, TARGET_RATE):
         node.create_subscription(Vector3Stamped, name, lambda msg: None, qos)
     node.create_subscription(WrenchStamped, TORQUE, lambda msg: None, qos)
+
+
+def run_bridge_check(
+    env: dict, mode: str, launch: str, *extra: str
+) -> tuple[int, dict[str, str], list[str]]:
+    """``attitude-bridge-check --mode MODE --launch LAUNCH [EXTRA...]``: (exit code, line
+    per point, all stdout lines)."""
+    tool = Path(sys.prefix) / "bin" / "attitude-bridge-check"
+    proc = subprocess.run(
+        [str(tool), "--mode", mode, "--launch", launch, *extra],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=180,
+    )
+    lines = proc.stdout.splitlines()
+    by_point = {}
+    for line in lines:
+        status, _, rest = line.partition(" ")
+        if status in ("PASS", "FAIL", "SKIP"):
+            by_point[rest.split(":")[0]] = line
+    assert lines and lines[-1].startswith("SUMMARY "), proc.stdout + proc.stderr
+    return proc.returncode, by_point, lines

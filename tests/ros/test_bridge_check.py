@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import importlib
 import shlex
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_helpers import run_bridge_check
 from support import needs_workspace
 
 from attitude_core.config.node_parameters import SIMULATOR
@@ -30,7 +30,6 @@ from attitude_tools.run import bridge_check
 
 ROOT = Path(__file__).resolve().parents[2]
 CASE1 = ROOT / "scenarios" / "case1.yaml"
-BIN = Path(sys.prefix) / "bin"
 BROKEN = ROOT / "tests" / "broken_bridges"
 pytestmark = [
     pytest.mark.ros,
@@ -338,23 +337,8 @@ def test_front_end_passes_the_arguments_as_ros_parameters():
 
 
 def run_check(env: dict, mode: str, launch: str) -> tuple[int, dict[str, str], list[str]]:
-    """``attitude-bridge-check --mode MODE --launch LAUNCH``: (exit code, line per point,
-    all stdout lines)."""
-    proc = subprocess.run(
-        [str(BIN / "attitude-bridge-check"), "--mode", mode, "--launch", launch],
-        env=env,
-        capture_output=True,
-        text=True,
-        timeout=180,
-    )
-    lines = proc.stdout.splitlines()
-    by_point = {}
-    for line in lines:
-        status, _, rest = line.partition(" ")
-        if status in ("PASS", "FAIL", "SKIP"):
-            by_point[rest.split(":")[0]] = line
-    assert lines and lines[-1].startswith("SUMMARY "), proc.stdout + proc.stderr
-    return proc.returncode, by_point, lines
+    """The tool on the default scenario: (exit code, line per point, all stdout lines)."""
+    return run_bridge_check(env, mode, launch)
 
 
 @pytest.mark.parametrize("mode", [LOCKSTEP, REALTIME])

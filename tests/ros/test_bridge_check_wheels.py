@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import importlib
 import shlex
-import subprocess
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
+from ros_helpers import run_bridge_check
 from support import needs_workspace
 
 from attitude_core.config.scenario import Scenario
@@ -31,7 +31,6 @@ from attitude_core.world.wheel_plant import WheelPlant
 ROOT = Path(__file__).resolve().parents[2]
 PYRAMID = ROOT / "scenarios" / "case1_rw_pyramid.yaml"
 CASE1 = ROOT / "scenarios" / "case1.yaml"
-BIN = Path(sys.prefix) / "bin"
 BROKEN = ROOT / "tests" / "broken_bridges"
 LOCKSTEP, REALTIME = TimeMode.LOCKSTEP.value, TimeMode.REALTIME.value
 
@@ -243,21 +242,8 @@ def test_wheels_point_without_wheel_states_and_skipped_without_wheels():
 
 
 def run_check(env: dict, mode: str, launch: str) -> tuple[int, dict[str, str], list[str]]:
-    """``attitude-bridge-check --mode MODE --scenario case1_rw_pyramid --launch LAUNCH``:
-    (exit code, line per point, all stdout lines)."""
-    proc = subprocess.run(
-        [str(BIN / "attitude-bridge-check"), "--mode", mode, "--scenario", str(PYRAMID),
-         "--launch", launch],
-        env=env, capture_output=True, text=True, timeout=180,
-    )  # fmt: skip
-    lines = proc.stdout.splitlines()
-    by_point = {}
-    for line in lines:
-        status, _, rest = line.partition(" ")
-        if status in ("PASS", "FAIL", "SKIP"):
-            by_point[rest.split(":")[0]] = line
-    assert lines and lines[-1].startswith("SUMMARY "), proc.stdout + proc.stderr
-    return proc.returncode, by_point, lines
+    """The tool on case1_rw_pyramid: (exit code, line per point, all stdout lines)."""
+    return run_bridge_check(env, mode, launch, "--scenario", str(PYRAMID))
 
 
 @pytest.mark.ros
