@@ -222,6 +222,11 @@ class WheeledBody:
     def speeds(self) -> Vector:
         return self.plant.speeds
 
+    def body_torque_of(self, motor_torque_nm: Vector, dt: float) -> Vector:
+        """The body torque the wheels would apply for ``motor_torque_nm`` now (no step)."""
+        u = self.plant.applied(motor_torque_nm, self.steps * dt)
+        return self.plant.array.body_torque_b(u)
+
     def step(self, motor_torque_nm: Vector, dt: float) -> None:
         out = self.plant.step(motor_torque_nm, self.steps * dt, dt)
         self.steps += 1
@@ -474,10 +479,8 @@ class SimStepper:
         self.tick_wait = False
         applied, applied_stamp = self._bounded(torque), self.state_stamp
         if self.k >= self.cfg.n_steps:  # nothing flown: what the plant would apply
-            body = self.body
-            if isinstance(body, WheeledBody):
-                u = body.plant.applied(applied, body.steps * self.cfg.dt_s)
-                applied = body.plant.array.body_torque_b(u)
+            if isinstance(self.body, WheeledBody):
+                applied = self.body.body_torque_of(applied, self.cfg.dt_s)
             decision = self._end(now, applied)
             decision.applied_stamp_ns = applied_stamp
             return decision
