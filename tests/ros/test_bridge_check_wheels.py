@@ -228,6 +228,20 @@ def test_a_late_effort_fails_only_the_wheels_point():
     assert {p for p, r in res.items() if r.status != "PASS"} == {"wheels"}
 
 
+def test_a_wheel_state_whose_state_is_still_in_flight_is_not_stray():
+    """The recording ends between a wheel state and its attitude (real time: separate
+    topics arrive in any order); a wheel state stamped after every state received is not
+    judged, one stamped between states is."""
+    rec = SyntheticWheelBridge(load_scenario(PYRAMID)).run()
+    rec.attitude = [a for a in rec.attitude if a.stamp_ns != rec.attitude[-1].stamp_ns]
+    res = {r.point: r for r in checker.judge(rec)}
+    assert res["wheels"].status == "PASS", res["wheels"].line()
+    w = rec.wheel_states[3]
+    rec.wheel_states.append(JointSample(w.stamp_ns + 1, *w[1:]))
+    res = {r.point: r for r in checker.judge(rec)}
+    assert "1 wheel state stamps that are no state's" in res["wheels"].detail
+
+
 def test_wheels_point_without_wheel_states_and_skipped_without_wheels():
     rec = SyntheticWheelBridge(load_scenario(PYRAMID)).run()
     rec.wheel_states = []

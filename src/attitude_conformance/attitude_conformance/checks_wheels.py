@@ -59,7 +59,8 @@ def _stamps(rec: Recording, seq: list[State]) -> str | None:
     common = have & stamps
     horizon = max(common) if common else seq[-1].stamp_ns  # later ones may be in flight
     missing = [st for st in seq if st.stamp_ns not in have and st.stamp_ns <= horizon]
-    stray = sorted({w.stamp_ns for w in rec.wheel_states} - stamps)
+    last = max(stamps)  # a wheel state stamped later: its state may be in flight
+    stray = sorted(s for s in {w.stamp_ns for w in rec.wheel_states} - stamps if s <= last)
     parts = []
     if missing:
         first = missing[0]
