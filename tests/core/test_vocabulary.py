@@ -53,6 +53,8 @@ def test_planner_statuses_codes_levels_and_ends_slew():
         ("infeasible", 3, DiagnosticLevel.ERROR, True),
         ("blocked", 4, DiagnosticLevel.WARN, False),
         ("safe_mode", 5, DiagnosticLevel.ERROR, True),
+        ("refused", 6, DiagnosticLevel.WARN, False),
+        ("complete", 7, DiagnosticLevel.OK, True),
     ]
 
 
@@ -83,7 +85,7 @@ def test_from_code_inverts_code():
     assert len(set(codes)) == len(codes)
     for status in PlannerStatus:
         assert PlannerStatus.from_code(status.code) is status
-    for bad in (-1, 6, 99):
+    for bad in (-1, 8, 99):
         with pytest.raises(ValueError, match=f"no planner status has code {bad}"):
             PlannerStatus.from_code(bad)
 
@@ -94,6 +96,7 @@ def test_ending_statuses_in_code_order():
         PlannerStatus.STUCK,
         PlannerStatus.INFEASIBLE,
         PlannerStatus.SAFE_MODE,
+        PlannerStatus.COMPLETE,
     )
     assert [s.code for s in PlannerStatus.ending()] == sorted(
         s.code for s in PlannerStatus if s.ends_slew

@@ -9,6 +9,7 @@ stderr), 2 bad input.
 from __future__ import annotations
 
 import argparse
+import math
 import shutil
 import sys
 from typing import Any
@@ -19,6 +20,7 @@ from attitude_core.config.scenario import ScenarioError
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract import diagnostics
 from attitude_core.loop.closed_loop import run_closed_loop
+from attitude_core.record.goal_figures import goal_in_force
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import RunResult
 from attitude_core.record.wheel_figures import inertial_momentum
@@ -58,6 +60,11 @@ def wheel_columns(names: tuple[str, ...]) -> list[str]:
     )
 
 
+GOAL_COLUMNS = ["goal_index", "goal_sigma_1", "goal_sigma_2", "goal_sigma_3"]
+"""With goals (``summary.json`` ``goals``): the index of the goal in force (-1: none) and
+its attitude ``sigma_DN`` (NaN: none)."""
+
+
 def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
     """Write ``summary.json`` and ``timeseries.csv`` atomically into ``out_dir``.
 
@@ -83,6 +90,11 @@ def write_run(run: RunResult, summary: dict[str, Any], out_dir: str) -> None:
                 wheels.applied_nm,
                 inertial_momentum(run),
             ]
+        if run.goals:  # a plan or received goals: the goal in force per step
+            index = goal_in_force(run)
+            goals = np.array([g.sigma_goal for g in run.goals] + [[math.nan] * 3])
+            columns += GOAL_COLUMNS
+            extra += [index, goals[index]]
         table = np.column_stack(
             [
                 run.t,

@@ -117,13 +117,16 @@ def guidance_from_scenario(
     routes: RoutePlanner | None = None,
     initial_route: Route | None = None,
     prepared: PreparedGuidance | None = None,
+    t0_s: float = 0.0,
 ) -> Guidance:
     """The guidance of a scenario from ``sigma_0`` (default: the scenario's start);
     ``routes`` may be a prepared :func:`route_planner` of the same scenario and
     ``initial_route`` a route it planned from ``sigma_0`` (planned here otherwise).
     ``prepared`` (:func:`prepare_guidance`) gives both: its route is taken when ``sigma_0`` is
     the scenario's start (on estimates: within the first fix's 3-sigma of it; the
-    planner node then answers its first state without planning a route)."""
+    planner node then answers its first state without planning a route). ``t0_s``: the
+    state time of ``sigma_0`` (a goal commanded during the run: the moving sky's route
+    is planned from then)."""
     fis = None if prepared is None else prepared.fis
     planner = planner_from_scenario(scenario, sigma_0, watchdog=False, fis=fis)
     if prepared is not None:
@@ -139,7 +142,7 @@ def guidance_from_scenario(
         routes = route_planner(scenario, planner.geometry.inflation_deg)
     if initial_route is None and sky_guide is not None:
         eta = scenario_eta_s(scenario, planner.sigma_t)
-        initial_route = sky_guide.plan_route(0.0, eta, planner.sigma_t, planner.goal)
+        initial_route = sky_guide.plan_route(t0_s, eta, planner.sigma_t, planner.goal)
     guidance = Guidance(
         planner,
         scenario_limits(scenario, planner.sigma_t),

@@ -7,6 +7,7 @@ cone geometry, the arrival bands, the knowledge of the declared sensors). The fl
 software never sees a scenario: :mod:`attitude_core.assembly` builds it from one.
 """
 
+import dataclasses
 import functools
 import math
 from collections.abc import Sequence
@@ -32,6 +33,7 @@ __all__ = [
     "Instrument",
     "BrightObject",
     "KeepIn",
+    "PlanTarget",
     "ArrivalConfig",
     "ActuatorLimits",
     "Scenario",
@@ -130,6 +132,15 @@ class KeepIn(_Record):
         return Motion(_vec(self.direction_inertial), None, self.ephemeris)
 
 
+@dataclass(frozen=True, eq=False)
+class PlanTarget(_Record):
+    """``plan.<name>``: one target of an observation plan, flown in order."""
+
+    name: str
+    desired_mrp: np.ndarray  # sigma_DN, MRP, |sigma| <= 1
+    dwell_s: float  # held within the arrival band this long before the next, s
+
+
 def _vec(v: np.ndarray | None) -> tuple[float, float, float] | None:
     return None if v is None else (float(v[0]), float(v[1]), float(v[2]))
 
@@ -169,6 +180,18 @@ class Scenario:
     link: LinkSpec | None = None  # the rehearsal link (None: states go out as made)
     wheels: WheelArray | None = None  # reaction wheels (None: actuators.*, a torque box)
     disturbances: Disturbances | None = None  # external torques (None: none)
+    plan: tuple[PlanTarget, ...] = ()  # an observation plan (desired_mrp: its first)
+
+    def retargeted(self, desired_mrp: np.ndarray) -> "Scenario":
+        """This scenario with another goal (a plan's next target, a commanded goal): its
+        cached views (the sky, the knowledge, the stacked members; none depends on the
+        goal) shared, not rebuilt."""
+        other = dataclasses.replace(self, desired_mrp=frozen_array(desired_mrp))
+        fields = {f.name for f in dataclasses.fields(self)}
+        for name, cached in self.__dict__.items():
+            if name not in fields:
+                other.__dict__[name] = cached
+        return other
 
     @property
     def watchdog(self) -> FdirConfig:

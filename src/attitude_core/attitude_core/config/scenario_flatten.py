@@ -53,12 +53,13 @@ def scenario_keys(
     bright_object_names: Sequence[str] = (),
     keep_in_names: Sequence[str] = (),
     wheel_names: Sequence[str] = (),
+    plan_names: Sequence[str] = (),
 ) -> list[Param]:
     """Every scenario row under its dotted key: the name lists first, then the table,
     then the per-name rows of the given names (in :data:`GROUPS` order)."""
     rows = [group_names_param(g) for g in GROUPS]
     rows += list(SCENARIO_PARAMETERS)
-    listed = (instrument_names, bright_object_names, keep_in_names, wheel_names)
+    listed = (instrument_names, bright_object_names, keep_in_names, wheel_names, plan_names)
     for group, names in zip(GROUPS, listed, strict=True):
         rows += [p.renamed(f"{group}.{n}.{p.key}") for n in names for p in GROUP_PARAMETERS[group]]
     rows += [

@@ -80,6 +80,7 @@ from attitude_core.config.scenario_groups import (
     parse_orbit,
     parse_sensors,
 )
+from attitude_core.config.scenario_plan import parse_plan
 from attitude_core.config.scenario_schema import (
     GROUP_PARAMETERS,
     GROUPS,
@@ -185,6 +186,7 @@ def parse_scenario(
     link = parse_link(values, source, fdir, sensors)
     orbit = parse_orbit(values, source)
     wheels = parse_wheels(groups["wheels"], per_name["wheels"], values, source, sensors, link)
+    plan = parse_plan(groups["plan"], per_name["plan"], values, source, wheels, link)
     scenario = Scenario(
         name=values["scenario_name"],
         source=str(source),
@@ -192,7 +194,7 @@ def parse_scenario(
         dt_s=values["dt_s"],
         inertia_kgm2=frozen_array(values["inertia_kgm2"]),
         initial_mrp=frozen_array(values["initial_mrp"]),
-        desired_mrp=frozen_array(values["desired_mrp"]),
+        desired_mrp=frozen_array(plan[0].desired_mrp if plan else values["desired_mrp"]),
         initial_rate_rad_s=frozen_array(values["initial_rate_rad_s"]),
         instruments=parse_instruments(groups, per_name["instruments"], flat, value, source),
         bright_objects=tuple(
@@ -217,13 +219,16 @@ def parse_scenario(
         link=link,
         wheels=wheels,
         disturbances=parse_disturbances(values, source, orbit, wheels),
+        plan=plan,
     )
     check_sky(scenario, source)
 
     # 4. Start and goal must satisfy the keep-out constraints (eq. 5) and the keep-in cones
     #    (at t = 0). On a moving sky the goal may be covered now and clear later: the
     #    guidance reports it blocked while it is.
-    keys = ("initial_mrp",) if not scenario.sky.static else ("initial_mrp", "desired_mrp")
+    #    A plan's targets are judged when they come up (a refused one is recorded, skipped).
+    static_goal = scenario.sky.static and not plan
+    keys = ("initial_mrp", "desired_mrp") if static_goal else ("initial_mrp",)
     names = scenario.constraint_names
     n_out = len(scenario.sky.pair_exclusion_deg)
     for key in keys:

@@ -295,7 +295,12 @@ SCENARIO_PARAMETERS = (
         ParamKind.MRP,
         "initial attitude sigma_BN(0), MRP (|sigma| > 1 taken as its shadow set)",
     ),
-    Param("desired_mrp", ParamKind.MRP, "desired attitude sigma_d = sigma_DN, MRP"),
+    Param(
+        "desired_mrp",
+        ParamKind.MRP,
+        "desired attitude sigma_d = sigma_DN, MRP (required without plan.*; absent with one)",
+        None,
+    ),
     Param("initial_rate_rad_s", ParamKind.VEC3, "initial body rate omega_BN(0), body axes, rad/s"),
     Param(
         "epoch_utc",
@@ -577,20 +582,34 @@ WHEEL_PARAMETERS = (
 )
 """Per wheel, under ``wheels.<name>.`` (:class:`attitude_core.models.wheel_array.WheelSpec`)."""
 
-GROUPS = ("instruments", "bright_objects", "keep_in", "wheels")
-OPTIONAL_GROUPS = ("keep_in", "wheels")
+PLAN_PARAMETERS = (
+    Param("desired_mrp", ParamKind.MRP, "the target's attitude sigma_DN, MRP"),
+    Param(
+        "dwell_s",
+        ParamKind.FLOAT,
+        "time the body holds the target within the arrival band before the next, s",
+        0.0,
+        ge(0.0),
+    ),
+)
+"""Per target, under ``plan.<name>.`` (:class:`attitude_core.config.scenario.PlanTarget`)."""
+
+GROUPS = ("instruments", "bright_objects", "keep_in", "wheels", "plan")
+OPTIONAL_GROUPS = ("keep_in", "wheels", "plan")
 """Groups whose ``<group>.names`` may be absent (no member)."""
 GROUP_PARAMETERS = {
     "instruments": INSTRUMENT_PARAMETERS,
     "bright_objects": OBJECT_PARAMETERS,
     "keep_in": KEEP_IN_PARAMETERS,
     "wheels": WHEEL_PARAMETERS,
+    "plan": PLAN_PARAMETERS,
 }
 _GROUP_TEXT = {
     "instruments": "names of the instruments",
     "bright_objects": "names of the bright_objects",
     "keep_in": "names of the keep-in cones (absent: none)",
     "wheels": "names of the reaction wheels (absent: actuators.* or an ideal torque)",
+    "plan": "names of an observation plan's targets, flown in order (absent: desired_mrp)",
 }
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import enum
 
-__all__ = ["DiagnosticLevel", "PlannerStatus"]
+__all__ = ["DiagnosticLevel", "GoalOutcome", "PlannerStatus"]
 
 
 class DiagnosticLevel(enum.IntEnum):
@@ -68,6 +68,16 @@ class PlannerStatus(enum.StrEnum):
     torque from then on and the run ends as a failure naming the lost state
     (:mod:`attitude_core.fsw.fdir.state_watchdog`)."""
 
+    REFUSED = ("refused", 6, DiagnosticLevel.WARN, False)
+    """A commanded goal (``/planner/goal``, or a plan's target) was refused before any
+    torque: it would put an instrument inside a keep-out (now, or during its dwell on a
+    moving sky), or no route reaches it; the goal in force stays. Reported at the state
+    that judged it, with the goal's id and the reason in ``/diagnostics``
+    (:class:`GoalOutcome`)."""
+    COMPLETE = ("complete", 7, DiagnosticLevel.OK, True)
+    """Every target of the scenario's plan (``plan.*``) is done: the last one held for
+    its dwell (or refused, infeasible, not reached); the last goal stays in force."""
+
     @classmethod
     def parse(cls, text: str) -> PlannerStatus:
         """The status whose value is ``text`` (ValueError if none)."""
@@ -88,3 +98,40 @@ class PlannerStatus(enum.StrEnum):
     def ending(cls) -> tuple[PlannerStatus, ...]:
         """The statuses that end a slew, in code order."""
         return tuple(s for s in cls if s.ends_slew)
+
+
+class GoalOutcome(enum.StrEnum):
+    """What became of one goal (a plan's target or a ``/planner/goal`` message): the
+    ``outcome`` of each entry of ``summary.json`` ``goals`` and of its ``/diagnostics``
+    report (``planner/goal``). ``level`` is the diagnostic level of the report."""
+
+    level: DiagnosticLevel
+
+    def __new__(cls, value: str, level: DiagnosticLevel) -> GoalOutcome:
+        member = str.__new__(cls, value)
+        member._value_ = value
+        member.level = level
+        return member
+
+    ACCEPTED = ("accepted", DiagnosticLevel.OK)
+    """Taken: the goal is in force (reported when it starts; not an end)."""
+    REACHED = ("reached", DiagnosticLevel.OK)
+    """The body arrived (``arrived``) and stayed in the arrival band for the dwell."""
+    REFUSED = ("refused", DiagnosticLevel.WARN)
+    """Refused before any torque (:attr:`PlannerStatus.REFUSED`)."""
+    INFEASIBLE = ("infeasible", DiagnosticLevel.ERROR)
+    """A plan's target no route reaches, or the actuators cannot fly: skipped."""
+    BLOCKED = ("blocked", DiagnosticLevel.WARN)
+    """The moving sky covered the goal until the goal was left (preempted or run end)."""
+    PREEMPTED = ("preempted", DiagnosticLevel.OK)
+    """A later goal took over before this one was reached."""
+    NOT_REACHED = ("not_reached", DiagnosticLevel.WARN)
+    """The run ended before the goal was reached (or before its dwell was over)."""
+
+    @classmethod
+    def parse(cls, text: str) -> GoalOutcome:
+        """The outcome whose value is ``text`` (ValueError if none)."""
+        for outcome in cls:
+            if outcome.value == text:
+                return outcome
+        raise ValueError(f"{text!r} is not a goal outcome {[o.value for o in cls]}")

@@ -24,11 +24,13 @@ import time
 
 import numpy as np
 
+from attitude_core.assembly.goal_sequence import GoalSequence
 from attitude_core.assembly.guidance import guidance_from_scenario, prepare_guidance
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.topics import NS_PER_S
 from attitude_core.fsw.control.pd import PdGains
 from attitude_core.fsw.fdir.tracker_watch import tracker_outages
+from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.loop.linked_loop import run_linked_loop
 from attitude_core.loop.loop_plant import loop_plant
 from attitude_core.loop.sensing import OnboardEstimation
@@ -51,7 +53,12 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
     n = scenario.n_steps
     dt = scenario.dt_s
     dt_ns = round(dt * NS_PER_S)
-    guidance = guidance_from_scenario(scenario) if scenario.sensors is None else None
+    # A plan (plan.*): its goals one after the other, each with its own guidance.
+    guidance: Guidance | GoalSequence | None = None
+    if scenario.plan:
+        guidance = GoalSequence(scenario, prepare_guidance(scenario))
+    elif scenario.sensors is None:
+        guidance = guidance_from_scenario(scenario)
     body = RigidBody(scenario.inertia_kgm2, scenario.initial_mrp, scenario.initial_rate_rad_s)
     sigma = np.empty((n + 1, 3))
     omega = np.empty((n + 1, 3))
@@ -117,6 +124,10 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
                 guidance.held_to((stop - 1) * dt_ns / NS_PER_S)
                 k = stop
     assert guidance is not None  # made at the first step
+    goals = []
+    if isinstance(guidance, GoalSequence):
+        guidance.finish(n * dt_ns / NS_PER_S)
+        goals = guidance.reported
     return RunResult(
         scenario,
         dt * np.arange(n + 1),
@@ -139,4 +150,5 @@ def run_closed_loop(scenario: Scenario) -> RunResult:
         faults=[]
         if onboard is None or scenario.sensors is None
         else tracker_outages(onboard.tracker_times, scenario.sensors.star_tracker_rate_hz, n * dt),
+        goals=goals,
     )

@@ -22,6 +22,7 @@ from attitude_core.contract.status import PlannerStatus
 from attitude_core.fsw.guidance.goal_watch import goal_blockages, safe_until_s
 from attitude_core.fsw.guidance.profile_limits import GuidanceLimits, time_bound_s
 from attitude_core.models.mrp import principal_angle, relative
+from attitude_core.record.goal_figures import final_goal, goal_entries, plan_reached
 from attitude_core.record.metrics import arrival_time, dense_min_margin_deg, path_length_mrp
 from attitude_core.record.trajectory import RunResult
 from attitude_core.record.wheel_figures import wheel_figures, wheel_time_bound_s
@@ -83,6 +84,8 @@ class Summary:
     # arrival are measured on the record's states only, never across such a window.
     faults: list[dict[str, Any]]
     unmeasured_windows_s: list[list[float]]
+    # The plan's targets and the goals received, in order (record/goal_figures.py).
+    goals: list[dict[str, Any]]
     sim_time_s: float
     dt_s: float
     wall_time_s: float
@@ -121,9 +124,12 @@ def summarize(run: RunResult) -> Summary:
     sc = run.scenario
     min_margin, t_min, unmeasured = _measured_min_margin(run)
     tol = sc.true_arrival  # the declared tolerances with perfect knowledge
+    goal = final_goal(run) if run.goals else sc.desired_mrp
     reached, t_reach, err_deg = arrival_time(
-        run.t, run.sigma_bn, run.omega_b, sc.desired_mrp, tol.attitude_tol_deg, tol.rate_tol_rad_s
+        run.t, run.sigma_bn, run.omega_b, goal, tol.attitude_tol_deg, tol.rate_tol_rad_s
     )
+    if sc.plan:  # the plan as a whole: every target reached, the last one's arrival
+        reached, t_reach = plan_reached(run)
     arrived = np.flatnonzero(run.planner_status == PlannerStatus.ARRIVED.code)
     stuck = bool(np.any(run.planner_status == PlannerStatus.STUCK.code))
     infeasible = bool(np.any(run.planner_status == PlannerStatus.INFEASIBLE.code))
@@ -188,6 +194,7 @@ def summarize(run: RunResult) -> Summary:
         **_estimation(run),
         faults=[f.to_json() for f in run.faults],
         unmeasured_windows_s=unmeasured,
+        goals=goal_entries(run),
         sim_time_s=sc.sim_time_s,
         dt_s=sc.dt_s,
         wall_time_s=run.wall_time_s,

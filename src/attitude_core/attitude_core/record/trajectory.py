@@ -14,6 +14,7 @@ import numpy as np
 
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.faults import Fault
+from attitude_core.contract.goals import GoalReport
 
 __all__ = ["RunResult", "Estimates", "WheelRecord"]
 
@@ -40,6 +41,9 @@ class RunResult:
     estimate: Estimates | None = None
     faults: list[Fault] = field(default_factory=list)  # in order of start
     wheels: WheelRecord | None = None  # with wheels.* (None otherwise)
+    # The plan's targets and the goals received, in order, with their outcomes (empty: the
+    # scenario's one goal, desired_mrp).
+    goals: list[GoalReport] = field(default_factory=list)
 
 
 @dataclass

@@ -111,6 +111,12 @@ class PlannerStepper:
         prepared: PreparedGuidance | None = None,
         executor: Executor | None = None,
     ) -> None:
+        if scenario.plan:
+            raise ValueError(
+                f"{scenario.source}: 'plan.names': the planner node does not fly an "
+                "observation plan yet (it would fly its first target only): use "
+                "attitude-offline or attitude-campaign"
+            )
         self.scenario = scenario
         self.prepared = prepare_guidance(scenario) if prepared is None else prepared
         self.own_thread: ThreadPoolExecutor | None = None

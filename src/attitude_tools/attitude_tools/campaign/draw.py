@@ -183,7 +183,21 @@ def _candidate(
         _draw_link(spec, rng, flat)
     if spec.wheels:
         _draw_wheels(spec, base, rng, flat)
+    if spec.plan_targets:
+        _draw_plan(spec, rng, flat)
     return flat
+
+
+def _draw_plan(spec: CampaignSpec, rng: np.random.Generator, flat: dict[str, Any]) -> None:
+    """An observation plan into ``flat`` instead of ``desired_mrp``: ``plan_targets``
+    targets uniform over SO(3), each with a dwell uniform in ``plan_dwell_s``."""
+    assert spec.plan_dwell_s is not None
+    del flat["desired_mrp"]
+    names = [f"target_{k}" for k in range(spec.plan_targets)]
+    flat["plan.names"] = names
+    for name in names:
+        flat[f"plan.{name}.desired_mrp"] = [float(x) for x in Rotation.random(rng=rng).as_mrp()]
+        flat[f"plan.{name}.dwell_s"] = _uniform(rng, spec.plan_dwell_s.lo, spec.plan_dwell_s.hi)
 
 
 def _draw_wheels(
@@ -279,7 +293,8 @@ def _end_margin_deg(flat: dict[str, Any], scenario: Scenario | None = None) -> f
     s = np.array([flat[f"instruments.{n}.boresight_body"] for n in inst], dtype=float)
     beta = np.array([flat[f"instruments.{n}.half_angle_deg"] for n in inst], dtype=float)
     c = np.array([flat[f"bright_objects.{n}.direction_inertial"] for n in objs], dtype=float)
-    ends = np.array([flat["initial_mrp"], flat["desired_mrp"]], dtype=float)
+    goals = [flat[f"plan.{n}.desired_mrp"] for n in flat.get("plan.names", ())]
+    ends = np.array([flat["initial_mrp"], *(goals or [flat["desired_mrp"]])], dtype=float)
     rotation = Rotation.from_mrp(ends)  # active: C_NB = C_BN^T
     c_bn = np.linalg.inv(rotation.as_matrix())
     smallest = float(margins_deg_from_dcm(c_bn, s, beta, c).min())
@@ -295,9 +310,12 @@ def _end_margin_deg(flat: dict[str, Any], scenario: Scenario | None = None) -> f
 def _sky_end_margin_deg(sc: Scenario) -> float:
     """The start's margin at ``t = 0`` and the goal's smallest over the run, on the sky."""
     t = np.append(np.arange(0.0, sc.sim_time_s, GOAL_SAMPLE_S), sc.sim_time_s)
-    goal = np.broadcast_to(np.asarray(sc.desired_mrp, dtype=float), (len(t), 3))
     start = sc.sky.constraint_margins_deg(0.0, np.asarray(sc.initial_mrp, dtype=float))
-    return min(float(start.min()), float(sc.sky.constraint_margins_deg(t, goal).min()))
+    smallest = float(start.min())
+    for sigma in [p.desired_mrp for p in sc.plan] or [sc.desired_mrp]:
+        goal = np.broadcast_to(np.asarray(sigma, dtype=float), (len(t), 3))
+        smallest = min(smallest, float(sc.sky.constraint_margins_deg(t, goal).min()))
+    return smallest
 
 
 def scenario_text(flat: dict[str, Any]) -> str:

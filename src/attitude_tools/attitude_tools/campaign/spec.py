@@ -160,6 +160,10 @@ class CampaignSpec:
     wheel_speed_rpm: Range | None = None
     wheel_failure_share: float | None = None
     wheel_fails_at_s: Range | None = None
+    # An observation plan drawn per run (0: the base's one goal): this many targets, each
+    # uniform over SO(3) like the goal, with a dwell uniform in plan_dwell_s.
+    plan_targets: int = 0
+    plan_dwell_s: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
@@ -196,7 +200,9 @@ _DISPERSIONS = {
     "sensors",
     "link",
     "wheels",
+    "plan",
 }
+_PLAN = {"targets", "dwell_s"}
 _SKY = {"epoch_utc", "raan_deg", "true_anomaly_deg"}
 _SENSORS = {
     "star_tracker_noise_scale",
@@ -394,6 +400,7 @@ def load_spec(path: str | Path) -> CampaignSpec:
             sensor_ranges[field] = r.pair(value, f"{key}.sensors.{field}", 0.0, positive)
     link = _read_link(r, d.get("link"), f"{key}.link", base_scenario)
     link.update(_read_wheels(r, d.get("wheels"), f"{key}.wheels", base_scenario, str(base)))
+    link.update(_read_plan(r, d.get("plan"), f"{key}.plan", base_scenario, str(base)))
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)
@@ -496,6 +503,26 @@ def _read_wheels(
         out["wheel_failure_share"] = share
         out["wheel_fails_at_s"] = r.pair(failure["fails_at_s"], f"{key}.failure.fails_at_s", 0.0)
     return out
+
+
+def _read_plan(r: _Reader, value: Any, key: str, base: Scenario, base_name: str) -> dict[str, Any]:
+    """The ``plan`` dispersions as :class:`CampaignSpec` fields (none: ``{}``)."""
+    if value is None:
+        return {}
+    given = r.mapping(value, key, _PLAN)
+    if any(given.get(k) is None for k in _PLAN):
+        raise r.fail(key, f"give {sorted(_PLAN)}")
+    targets = given["targets"]
+    if isinstance(targets, bool) or not isinstance(targets, int) or not 1 <= targets <= 20:
+        raise r.fail(f"{key}.targets", f"must be an integer in [1, 20], got {targets!r}")
+    if base.wheels is not None or base.link is not None:
+        raise r.fail(
+            key, f"the base scenario {base_name} has wheels.* or link.*: plans fly without"
+        )
+    return {
+        "plan_targets": targets,
+        "plan_dwell_s": r.pair(given["dwell_s"], f"{key}.dwell_s", 0.0),
+    }
 
 
 def _check_kept_instruments(r: _Reader, base: Scenario, key: str) -> None:

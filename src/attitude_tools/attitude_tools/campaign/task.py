@@ -121,6 +121,34 @@ def _wheel_columns(sc: Any, summary: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _plan_columns(spec: CampaignSpec, summary: dict[str, Any]) -> dict[str, Any]:
+    """A plan run's targets (none without ``dispersions.plan``): per target ``k`` its
+    outcome, arrival and dense margin while in force, and the outcome of the run:
+    ``violated``, else ``reached`` when every target was, else that of the first target
+    not reached (refused or infeasible: ``infeasible``; ``blocked``; stuck; else
+    ``not_reached``)."""
+    if not spec.plan_targets:
+        return {}
+    goals = summary["goals"]
+    out: dict[str, Any] = {"goals_reached": sum(g["outcome"] == "reached" for g in goals)}
+    for k in range(spec.plan_targets):
+        g = goals[k]
+        out[f"target_{k}_outcome"] = g["outcome"]
+        out[f"target_{k}_t_reach_s"] = _or_nan(g["t_reach_s"])
+        out[f"target_{k}_min_margin_deg"] = _or_nan(g["min_margin_deg"])
+        out[f"target_{k}_rotation_deg"] = _or_nan(g["rotation_deg"])
+    if summary["min_margin_deg"] > 0.0 and not summary["reached"]:
+        first = next(g for g in goals if g["outcome"] != "reached")
+        out["outcome"] = _PLAN_OUTCOME.get(first["outcome"], "not_reached")
+        if first["reason"] == "stuck":
+            out["outcome"] = "stuck"
+    return out
+
+
+_PLAN_OUTCOME = {"refused": "infeasible", "infeasible": "infeasible", "blocked": "blocked"}
+"""A plan target's outcome as a run outcome (:data:`OUTCOMES`); others: ``not_reached``."""
+
+
 def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
     """The results row of run ``i`` flown by ``variant``."""
     t0 = time.perf_counter()
@@ -175,6 +203,7 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         **_sensor_columns(sc, summary),
         **_fault_columns(summary),
         **_wheel_columns(sc, summary),
+        **_plan_columns(spec, summary),
     }
     row["task_s"] = time.perf_counter() - t0
     return row

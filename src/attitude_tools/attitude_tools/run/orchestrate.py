@@ -182,6 +182,13 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
             "missing: an external estimate needs the sensors it comes from (sensors.*: the "
             "guidance's knowledge bounds)",
         )
+    if scenario.plan:
+        raise ScenarioError(
+            req.scenario_path,
+            "plan.names",
+            "an observation plan is flown by attitude-offline and attitude-campaign; the "
+            "nodes do not fly plans yet (they would fly its first target only)",
+        )
     nodes = graph.graph(
         scenario.sensors is not None and not req.external_estimate, scenario.wheels is not None
     )

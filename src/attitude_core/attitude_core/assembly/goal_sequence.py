@@ -1,0 +1,331 @@
+"""Commanded goals: a plan's targets and goals received at run time, one in force.
+
+Inputs: a :class:`~attitude_core.config.scenario.Scenario` (its ``plan.*``), each
+measured state ``(t, sigma_BN, omega_B)`` (:meth:`GoalSequence.update`) and the goals
+commanded meanwhile (:meth:`GoalSequence.command`, ``sigma_DN``). Outputs: the target of
+each state (the guidance of the goal in force), the status to report, and each goal's
+record (:class:`~attitude_core.contract.goals.GoalReport`), reported when it is taken
+and when it ends (:attr:`GoalSequence.reports`).
+
+* A goal is judged at the first state after it came (:func:`goal_clearance`): one whose
+  attitude puts an instrument inside a keep-out, or an axis outside a keep-in cone, now
+  or within its dwell on a moving sky, is **refused** before any torque, with the
+  reason; so is one no route reaches (enclosed). The goal in force stays; the status
+  ``refused`` is reported for that state.
+* Otherwise it preempts the goal in force (``preempted``, or ``reached`` if the body had
+  arrived) and a new guidance is planned from the measured state, rate included (the
+  profile starts from the body's rate), with every guarantee of a single slew: the same
+  :func:`~attitude_core.assembly.guidance.guidance_from_scenario`.
+* A plan's targets are flown in order: each is ``reached`` once the body has stayed
+  ``arrived`` for its dwell (the dwell restarts if the arrival is withdrawn); a target
+  refused, infeasible or stuck is recorded and skipped. After the last one the status
+  is ``complete`` and the last goal stays in force. A goal received during a plan goes
+  first; the plan's targets left follow it once it is reached (a received goal's dwell
+  is unbounded: it holds until the next goal).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import replace
+
+import numpy as np
+
+from attitude_core.assembly.guidance import PreparedGuidance, guidance_from_scenario
+from attitude_core.config.scenario import Scenario
+from attitude_core.contract.goals import GoalReport
+from attitude_core.contract.status import GoalOutcome, PlannerStatus
+from attitude_core.fsw.guidance.guidance import Guidance
+from attitude_core.fsw.guidance.guidance_base import Executor, GuidanceOutput
+from attitude_core.fsw.guidance.route import RoutePlanner
+from attitude_core.models.mrp import Vec3Like, angle_between_single, to_principal
+
+__all__ = ["GoalSequence", "goal_clearance", "CLEARANCE_STEP_S"]
+
+CLEARANCE_STEP_S = 1.0
+"""Sampling of a moving sky over a goal's dwell when it is judged, s."""
+
+
+def goal_clearance(scenario: Scenario, t_s: float, sigma_goal: Vec3Like, dwell_s: float) -> str:
+    """Why the attitude ``sigma_goal`` cannot be held from ``t_s`` for ``dwell_s``
+    (an instrument inside a keep-out or an axis outside a keep-in, eq. 5), or "" if it
+    can. On a moving sky the dwell is sampled every :data:`CLEARANCE_STEP_S` up to the
+    sky's horizon."""
+    sky = scenario.sky
+    horizon = sky.horizon_s if not sky.static else t_s
+    end = min(t_s + dwell_s, horizon) if math.isfinite(dwell_s) else horizon
+    times = [t_s] if sky.static or end <= t_s else list(np.arange(t_s, end, CLEARANCE_STEP_S))
+    names = scenario.constraint_names
+    for t in times:
+        margins = sky.constraint_margins_deg(float(t), np.asarray(sigma_goal, dtype=float))
+        c = int(np.argmin(margins))
+        if margins[c] <= 0.0:
+            when = "" if t == t_s else f" at t = {t:.1f} s, within its dwell"
+            what = (
+                f"outside keep-in cone {names[c]}"
+                if names[c].startswith("keep_in/")
+                else f"inside the keep-out of {names[c]}"
+            )
+            return f"the goal attitude is {what} (margin {margins[c]:.2f} deg){when}"
+    return ""
+
+
+class GoalSequence:
+    """See the module docstring. ``prepared``: what the scenario's first goal was
+    prepared with (:func:`~attitude_core.assembly.guidance.prepare_guidance`);
+    ``executor``: where routes are planned again."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        prepared: PreparedGuidance | None = None,
+        executor: Executor | None = None,
+    ) -> None:
+        self.scenario = scenario
+        self.prepared = prepared
+        self.executor = executor
+        self.guidance: Guidance | None = None
+        self.current: GoalReport | None = None  # the goal in force, not yet ended
+        self.records: list[GoalReport] = []  # every goal, in the order it came
+        self.reports: list[GoalReport] = []  # the reports of the last update
+        self.queue: deque[int] = deque()  # the plan's targets left (indices into records)
+        self.incoming: deque[int] = deque()  # goals received since the last state
+        self._arrived_at: float | None = None
+        self._routes: dict[float, RoutePlanner] = {}
+        if prepared is not None:
+            self._routes[prepared.routes.buffer_deg] = prepared.routes
+        for k, target in enumerate(scenario.plan):
+            self._add(-(k + 1), target.name, target.desired_mrp, target.dwell_s, 0.0)
+        if not scenario.plan:  # the scenario's own goal: in force first, not reported
+            self._add(0, "desired_mrp", scenario.desired_mrp, math.inf, 0.0)
+        self._plan = bool(scenario.plan)
+
+    @property
+    def complete(self) -> bool:
+        """Every target of the plan is done and no goal is in force or waiting."""
+        return self._plan and self.current is None and not self.queue and not self.incoming
+
+    @property
+    def goal(self) -> np.ndarray:
+        assert self.guidance is not None
+        return self.guidance.goal
+
+    @property
+    def reason(self) -> str:
+        return "" if self.guidance is None else self.guidance.reason
+
+    @property
+    def route_rotation_deg(self) -> float:
+        return math.nan if self.guidance is None else self.guidance.route_rotation_deg
+
+    @property
+    def reported(self) -> list[GoalReport]:
+        """The goals of ``summary.json`` ``goals``: the plan's and those received."""
+        return [r for r in self.records if r.goal_id != 0]
+
+    def command(self, goal_id: int, name: str, sigma_goal: Vec3Like, t_s: float) -> None:
+        """A goal received at state time ``t_s`` (judged at the next state), held until
+        the next goal."""
+        self._add(goal_id, name, sigma_goal, math.inf, t_s, first=True)
+
+    def _add(
+        self,
+        goal_id: int,
+        name: str,
+        sigma: Vec3Like,
+        dwell_s: float,
+        t_s: float,
+        first: bool = False,
+    ) -> None:
+        s = to_principal(np.asarray(sigma, dtype=float))
+        rec = GoalReport(
+            goal_id,
+            name,
+            (float(s[0]), float(s[1]), float(s[2])),
+            dwell_s,
+            GoalOutcome.ACCEPTED,
+            t_s,
+        )
+        self.records.append(rec)
+        (self.incoming if first else self.queue).append(len(self.records) - 1)
+
+    def _set(self, k: int, rec: GoalReport, report: bool = True) -> None:
+        self.records[k] = rec
+        if self.current is not None and self.current.goal_id == rec.goal_id:
+            self.current = None if rec.final else rec
+        if report and rec.goal_id != 0:
+            self.reports.append(rec)
+
+    def _index(self, rec: GoalReport) -> int:
+        return next(k for k, r in enumerate(self.records) if r.goal_id == rec.goal_id)
+
+    def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
+        """The target for the measured state at ``t_s``; :attr:`reports` are the goal
+        reports this state made."""
+        self.reports = []
+        refused = self._take(t_s, sigma_bn, omega_b)
+        assert self.guidance is not None
+        out = self.guidance.update(t_s, sigma_bn, omega_b)
+        self._follow(t_s)
+        if refused:
+            out.target.status = PlannerStatus.REFUSED
+        elif self.complete:
+            out.target.status = PlannerStatus.COMPLETE
+        return out
+
+    def hold_band(self) -> tuple[float, float] | None:
+        """The guidance's hold band, once nothing is left to fly (the offline loop's
+        held steps); None while a goal is dwelling or queued."""
+        if (
+            self.guidance is None
+            or self.incoming
+            or self.queue
+            or (self._plan and not self.complete)
+        ):
+            return None
+        if self.current is not None and math.isfinite(self.current.dwell_s):
+            return None
+        return self.guidance.hold_band()
+
+    def held_to(self, t_s: float) -> None:
+        assert self.guidance is not None
+        self.guidance.held_to(t_s)
+
+    def finish(self, t_s: float) -> list[GoalReport]:
+        """The run ended at ``t_s``: the goal in force and those queued get their
+        outcome (``reached`` if the body is there, else ``blocked`` or ``not_reached``)."""
+        self.reports = []
+        if self.current is not None:
+            k = self._index(self.current)
+            cur = self.current
+            if not math.isnan(cur.t_reach_s) and self._arrived_at is not None:
+                outcome = GoalOutcome.REACHED if math.isinf(cur.dwell_s) else self._dwelt(t_s)
+            elif self.guidance is not None and self.guidance.status is PlannerStatus.BLOCKED:
+                outcome = GoalOutcome.BLOCKED
+            else:
+                outcome = GoalOutcome.NOT_REACHED
+            self._set(k, cur.ended(outcome, t_s))
+        while self.incoming or self.queue:
+            k = (self.incoming or self.queue).popleft()
+            self._set(k, self.records[k].ended(GoalOutcome.NOT_REACHED, t_s, "the run ended first"))
+        return self.reports
+
+    def _dwelt(self, t_s: float) -> GoalOutcome:
+        assert self.current is not None and self._arrived_at is not None
+        done = t_s - self._arrived_at >= self.current.dwell_s - 1e-9
+        return GoalOutcome.REACHED if done else GoalOutcome.NOT_REACHED
+
+    def _take(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> bool:
+        """Judge the goals received since the last state (each preempts, or is refused),
+        then, with none in force, the plan's next targets until one is; True if one was
+        refused at this state."""
+        refused = False
+        while self.incoming or (self.current is None and self.queue):
+            k = (self.incoming or self.queue).popleft()
+            rec = self.records[k]
+            rotation = math.degrees(angle_between_single(sigma_bn, rec.sigma_goal))
+            rec = replace(rec, t_start_s=t_s, rotation_deg=rotation)
+            if rec.goal_id <= 0:  # a plan's target is commanded when its turn comes
+                rec = replace(rec, t_commanded_s=t_s)
+            why = goal_clearance(self.scenario, t_s, rec.sigma_goal, rec.dwell_s)
+            guidance = None if why else self._guidance(rec, t_s, sigma_bn, omega_b)
+            if guidance is not None and guidance.status is PlannerStatus.INFEASIBLE:
+                why = guidance.reason
+                if rec.goal_id > 0:  # a received goal no route reaches: refused
+                    why = f"no route reaches it: {why}"
+            if why:
+                planned = rec.goal_id <= 0 and guidance is not None
+                outcome = GoalOutcome.INFEASIBLE if planned else GoalOutcome.REFUSED
+                refused |= outcome is GoalOutcome.REFUSED
+                self._set(k, replace(rec, t_start_s=math.nan).ended(outcome, t_s, why))
+                if self.guidance is None and not self.queue and not self.incoming:
+                    # nothing was ever in force: the target holds the start
+                    hold = guidance or self._guidance(rec, t_s, sigma_bn, omega_b)
+                    hold.declare_infeasible(why)
+                    self.guidance = hold
+                continue
+            if self.current is not None:
+                self._close_current(t_s)
+            assert guidance is not None
+            self.guidance = guidance
+            self._arrived_at = None
+            self.current = rec
+            self._set(k, rec)
+        return refused
+
+    def _close_current(self, t_s: float) -> None:
+        """A new goal takes over: the one in force is ``reached`` if the body is on it
+        and its dwell is over (or unbounded), else ``blocked`` or ``preempted``."""
+        cur = self.current
+        assert cur is not None
+        dwell, since = self._dwell(cur), self._arrived_at
+        if since is not None and (math.isinf(dwell) or t_s - since >= dwell - 1e-9):
+            outcome = GoalOutcome.REACHED
+        elif self.guidance is not None and self.guidance.status is PlannerStatus.BLOCKED:
+            outcome = GoalOutcome.BLOCKED
+        else:
+            outcome = GoalOutcome.PREEMPTED
+        self._set(self._index(cur), cur.ended(outcome, t_s))
+
+    def _dwell(self, rec: GoalReport) -> float:
+        """How long ``rec`` is held once arrived, s: its dwell; a received goal's is
+        unbounded (held until the next goal), none while plan targets wait behind it."""
+        if math.isfinite(rec.dwell_s):
+            return rec.dwell_s
+        return 0.0 if self.queue else math.inf
+
+    def _follow(self, t_s: float) -> None:
+        """After the guidance's update: arrival, dwell, and a target given up."""
+        cur, g = self.current, self.guidance
+        if cur is None or g is None:
+            return
+        k = self._index(cur)
+        if g.status is PlannerStatus.ARRIVED:
+            if self._arrived_at is None:
+                self._arrived_at = t_s
+            if math.isnan(cur.t_reach_s):
+                cur = replace(cur, t_reach_s=t_s)
+                self._set(k, cur, report=False)
+            if t_s - self._arrived_at >= self._dwell(cur) - 1e-9:
+                self._set(k, cur.ended(GoalOutcome.REACHED, t_s))
+        else:
+            self._arrived_at = None
+            if g.status is PlannerStatus.INFEASIBLE:
+                self._set(k, cur.ended(GoalOutcome.INFEASIBLE, t_s, g.reason))
+            elif g.status is PlannerStatus.STUCK and self.queue:
+                self._set(k, cur.ended(GoalOutcome.NOT_REACHED, t_s, "stuck"))
+
+    def _guidance(
+        self,
+        rec: GoalReport,
+        t_s: float,
+        sigma_bn: Vec3Like,
+        omega_b: Vec3Like,
+    ) -> Guidance:
+        """The guidance of ``rec`` from the measured state (the profile from the body's
+        rate)."""
+        scenario = self.scenario.retargeted(np.asarray(rec.sigma_goal))
+        first = (
+            self.prepared is not None
+            and np.allclose(rec.sigma_goal, self.scenario.desired_mrp, rtol=0.0, atol=1e-12)
+            and self.guidance is None
+        )
+        guidance = guidance_from_scenario(
+            scenario,
+            sigma_0=sigma_bn,
+            executor=self.executor,
+            prepared=self.prepared if first else None,
+            routes=None if first else self._routes_for(scenario, sigma_bn),
+            t0_s=t_s,
+        )
+        if np.any(np.asarray(omega_b, dtype=float) != 0.0):
+            guidance.omega_prev = np.array(omega_b, dtype=float)
+        if guidance.routes is not None:
+            self._routes.setdefault(guidance.routes.buffer_deg, guidance.routes)
+        return guidance
+
+    def _routes_for(self, scenario: Scenario, sigma_bn: Vec3Like) -> RoutePlanner | None:
+        from attitude_core.assembly.guidance import buffer_deg
+
+        return self._routes.get(buffer_deg(scenario, sigma_bn))
