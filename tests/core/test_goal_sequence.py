@@ -185,6 +185,7 @@ def test_goal_clearance_names_the_constraint_and_passes_a_clear_goal():
 
 def test_goal_report_round_trips_through_its_diagnostic_values():
     report = GoalReport(
+        "topic",
         12,
         "goal@0.000000012",
         (0.1, -0.2, 0.3),
@@ -194,6 +195,7 @@ def test_goal_report_round_trips_through_its_diagnostic_values():
         reason="the goal attitude is inside the keep-out of a/b (margin -1.00 deg)",
     )
     back = GoalReport.from_values(dict(report.diagnostic_values()))
+    assert back.diagnostic_values() == report.diagnostic_values()
     assert back.goal_id == report.goal_id and back.sigma_goal == report.sigma_goal
     assert back.outcome is report.outcome and back.reason == report.reason
     assert math.isinf(back.dwell_s) and math.isnan(back.t_reach_s)
@@ -201,10 +203,3 @@ def test_goal_report_round_trips_through_its_diagnostic_values():
         GoalReport.from_values({k: v for k, v in report.diagnostic_values() if k != "outcome"})
     entry = report.to_json(None)
     assert entry["outcome"] == "refused" and entry["t_reach_s"] is None and entry["dwell_s"] is None
-
-
-def test_the_planner_node_refuses_a_plan_it_would_not_fly_whole():
-    from attitude_core.runtime.planner_stepper import PlannerStepper
-
-    with pytest.raises(ValueError, match="'plan.names': the planner node does not fly"):
-        PlannerStepper(load_scenario(PLAN))

@@ -72,7 +72,7 @@ class BagRecorderNode(StackNode):
         self.writer = open_bag(self.output_dir, scenario_text)
         self.timeline = Timeline(self.writer, self.stop_rule, run_time_s, self.get_logger().warning)
         self.reported = False  # a failed write was logged
-        for topic in c.TOPICS:
+        for topic in c.TOPICS + c.COMMAND_TOPICS:  # the goal: <run namespace>/planner/goal
             raw_subscription(self, topic.name, self.callback(topic))
         self.create_timer(0.1, self.check_outcome)
         # Foreign publishers on any contract topic are logged and counted (attitude-run

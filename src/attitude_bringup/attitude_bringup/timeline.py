@@ -56,8 +56,9 @@ def open_bag(output_dir: str, scenario_text: str | None) -> BagWriter:
 
 
 def add_contract_topics(writer: BagWriter) -> None:
-    """Every contract topic in the bag, with the QoS its publishers offer."""
-    for topic in c.TOPICS:
+    """Every contract topic in the bag (an operator's goal under ``/planner/goal``), with
+    the QoS its publishers offer."""
+    for topic in c.TOPICS + c.COMMAND_TOPICS:
         writer.add_topic(
             topic.name,
             topic.type_name,

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any
 from attitude_core.contract.topics import *  # noqa: F403 - the contract's names, re-exported
 from attitude_core.contract.topics import (  # noqa: F401
     CLOCK,
+    COMMAND_TOPICS,
+    GOAL_DEPTH,
     HISTORY_DEPTH,
     STATE_TOPICS,
     TOPICS,
@@ -42,9 +44,10 @@ def qos(entry: Topic | None = None, *, subscriber: bool = False) -> QoSProfile:
             reliability=ReliabilityPolicy.RELIABLE,
             durability=DurabilityPolicy.TRANSIENT_LOCAL,
         )
+    command = entry is not None and entry in COMMAND_TOPICS
     return QoSProfile(  # type: ignore[no-untyped-call]
-        history=HistoryPolicy.KEEP_LAST if subscriber else HistoryPolicy.KEEP_ALL,
-        depth=HISTORY_DEPTH,
+        history=HistoryPolicy.KEEP_LAST if subscriber or command else HistoryPolicy.KEEP_ALL,
+        depth=GOAL_DEPTH if command else HISTORY_DEPTH,
         reliability=ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.VOLATILE,
     )

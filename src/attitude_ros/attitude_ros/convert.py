@@ -16,6 +16,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from attitude_core.contract import diagnostics
 from attitude_core.contract.diagnostics import PlannerDiagnostics
 from attitude_core.contract.faults import Fault
+from attitude_core.contract.goals import GOAL_DIAGNOSTIC_NAME, GoalReport
 from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
 from attitude_core.contract.topics import NS_PER_S, Stamp
 from attitude_core.contract.topics import stamp_ns as stamp_ns  # re-exported for the nodes
@@ -175,6 +176,23 @@ def fault_diagnostics(stamp: Any, fault: Fault) -> Any:
         level=bytes([fault.diagnostic_level]),
         message=fault.detail,
         values=[KeyValue(key=k, value=v) for k, v in fault.diagnostic_values()],
+    )
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = stamp
+    return msg
+
+
+def goal_diagnostics(stamp: Any, goal: GoalReport) -> Any:
+    """A ``/diagnostics`` message of one goal report: status ``planner/goal``, its
+    outcome's level, the outcome and reason as message, the report's key/values
+    (:mod:`attitude_core.contract.goals`)."""
+    why = f": {goal.reason}" if goal.reason else ""
+    status = DiagnosticStatus(
+        name=GOAL_DIAGNOSTIC_NAME,
+        hardware_id=diagnostics.HARDWARE_ID,
+        level=bytes([goal.outcome.level]),
+        message=f"{goal.name} {goal.outcome.value}{why}",
+        values=[KeyValue(key=k, value=v) for k, v in goal.diagnostic_values()],
     )
     msg = DiagnosticArray(status=[status])
     msg.header.stamp = stamp

@@ -15,7 +15,8 @@ __all__ = ["publisher", "subscription", "raw_subscription", "message"]
 def publisher(node: Any, name: str, **kwargs: Any) -> Any:
     """A publisher of ``name`` with the contract's message class and QoS."""
     entry = c.topic(name)
-    return node.create_publisher(c.message_class(entry.type_name), name, c.qos(entry), **kwargs)
+    cls = c.message_class(entry.type_name)
+    return node.create_publisher(cls, entry.node_name, c.qos(entry), **kwargs)
 
 
 def subscription(node: Any, name: str, callback: Callable[[Any], None], **kwargs: Any) -> Any:
@@ -25,7 +26,7 @@ def subscription(node: Any, name: str, callback: Callable[[Any], None], **kwargs
     entry = c.topic(name)
     return node.create_subscription(
         c.message_class(entry.type_name),
-        name,
+        entry.node_name,
         callback,
         c.qos(entry, subscriber=True),
         qos_overriding_options=c.state_qos_overrides(entry),
@@ -39,7 +40,7 @@ def raw_subscription(node: Any, name: str, callback: Callable[[bytes], None]) ->
     entry = c.topic(name)
     return node.create_subscription(
         c.message_class(entry.type_name),
-        name,
+        entry.node_name,
         callback,
         c.recorder_qos(entry),
         raw=True,

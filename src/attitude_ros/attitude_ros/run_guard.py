@@ -110,7 +110,9 @@ class RunGuard:
         self.strict = stops and ri.in_run(self.namespace)
         self.stops = stops
         self.fingerprint = "" if scenario is None else ri.scenario_fingerprint(scenario)
-        self.inputs = tuple(spec.subscribes)
+        # The inputs whose publishers are the run's own: not an operator's (the goal).
+        commands = {topic.name for topic in c.COMMAND_TOPICS}
+        self.inputs = tuple(name for name in spec.subscribes if name not in commands)
         self.foreign: dict[tuple[str, ri.Endpoint], float] = {}  # -> when first seen
         self.compromised: set[str] = set()
         self.refused_foreign = 0

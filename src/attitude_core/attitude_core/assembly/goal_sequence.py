@@ -32,9 +32,18 @@ from dataclasses import replace
 
 import numpy as np
 
-from attitude_core.assembly.guidance import PreparedGuidance, guidance_from_scenario
+from attitude_core.assembly.guidance import (
+    PreparedGuidance,
+    buffer_deg,
+    guidance_from_scenario,
+)
 from attitude_core.config.scenario import Scenario
-from attitude_core.contract.goals import GoalReport
+from attitude_core.contract.goals import (
+    SOURCE_PLAN,
+    SOURCE_SCENARIO,
+    SOURCE_TOPIC,
+    GoalReport,
+)
 from attitude_core.contract.status import GoalOutcome, PlannerStatus
 from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.fsw.guidance.guidance_base import Executor, GuidanceOutput
@@ -86,25 +95,33 @@ class GoalSequence:
         self.prepared = prepared
         self.executor = executor
         self.guidance: Guidance | None = None
-        self.current: GoalReport | None = None  # the goal in force, not yet ended
         self.records: list[GoalReport] = []  # every goal, in the order it came
         self.reports: list[GoalReport] = []  # the reports of the last update
         self.queue: deque[int] = deque()  # the plan's targets left (indices into records)
         self.incoming: deque[int] = deque()  # goals received since the last state
+        self._current: int | None = None  # the goal in force (index), until it ends
+        self._refused: list[GoalReport] = []  # refused on receipt, reported next state
+        self._refused_now = False  # one refused at the state begun
+        self._begun: float | None = None  # the state time begun, until its update
         self._arrived_at: float | None = None
         self._routes: dict[float, RoutePlanner] = {}
         if prepared is not None:
             self._routes[prepared.routes.buffer_deg] = prepared.routes
         for k, target in enumerate(scenario.plan):
-            self._add(-(k + 1), target.name, target.desired_mrp, target.dwell_s, 0.0)
+            self._add(SOURCE_PLAN, k, target.name, target.desired_mrp, target.dwell_s, 0.0)
         if not scenario.plan:  # the scenario's own goal: in force first, not reported
-            self._add(0, "desired_mrp", scenario.desired_mrp, math.inf, 0.0)
+            self._add(SOURCE_SCENARIO, 0, "desired_mrp", scenario.desired_mrp, math.inf, 0.0)
         self._plan = bool(scenario.plan)
+
+    @property
+    def current(self) -> GoalReport | None:
+        """The goal in force (None: none, or the last one ended)."""
+        return None if self._current is None else self.records[self._current]
 
     @property
     def complete(self) -> bool:
         """Every target of the plan is done and no goal is in force or waiting."""
-        return self._plan and self.current is None and not self.queue and not self.incoming
+        return self._plan and self._current is None and not self.queue and not self.incoming
 
     @property
     def goal(self) -> np.ndarray:
@@ -122,49 +139,54 @@ class GoalSequence:
     @property
     def reported(self) -> list[GoalReport]:
         """The goals of ``summary.json`` ``goals``: the plan's and those received."""
-        return [r for r in self.records if r.goal_id != 0]
+        return [r for r in self.records if r.source != SOURCE_SCENARIO]
+
+    def refuse(self, goal_id: int, name: str, sigma_goal: Vec3Like, t_s: float, why: str) -> None:
+        """A goal refused on receipt (a malformed message), at state time ``t_s``: on
+        record, reported at the next state; the goal in force stays."""
+        s = np.asarray(sigma_goal, dtype=float)
+        goal = (float(s[0]), float(s[1]), float(s[2]))
+        rec = GoalReport(SOURCE_TOPIC, goal_id, name, goal, math.inf, GoalOutcome.REFUSED, t_s)
+        self.records.append(rec.ended(GoalOutcome.REFUSED, t_s, why))
+        self._refused.append(self.records[-1])
 
     def command(self, goal_id: int, name: str, sigma_goal: Vec3Like, t_s: float) -> None:
         """A goal received at state time ``t_s`` (judged at the next state), held until
         the next goal."""
-        self._add(goal_id, name, sigma_goal, math.inf, t_s, first=True)
+        self._add(SOURCE_TOPIC, goal_id, name, sigma_goal, math.inf, t_s, received=True)
 
     def _add(
         self,
+        source: str,
         goal_id: int,
         name: str,
         sigma: Vec3Like,
         dwell_s: float,
         t_s: float,
-        first: bool = False,
+        received: bool = False,
     ) -> None:
         s = to_principal(np.asarray(sigma, dtype=float))
-        rec = GoalReport(
-            goal_id,
-            name,
-            (float(s[0]), float(s[1]), float(s[2])),
-            dwell_s,
-            GoalOutcome.ACCEPTED,
-            t_s,
-        )
+        goal = (float(s[0]), float(s[1]), float(s[2]))
+        rec = GoalReport(source, goal_id, name, goal, dwell_s, GoalOutcome.ACCEPTED, t_s)
         self.records.append(rec)
-        (self.incoming if first else self.queue).append(len(self.records) - 1)
+        (self.incoming if received else self.queue).append(len(self.records) - 1)
 
     def _set(self, k: int, rec: GoalReport, report: bool = True) -> None:
+        """Record ``rec`` as goal ``k`` (it leaves force when final); ``report``: one of
+        this state's :attr:`reports`."""
         self.records[k] = rec
-        if self.current is not None and self.current.goal_id == rec.goal_id:
-            self.current = None if rec.final else rec
-        if report and rec.goal_id != 0:
+        if k == self._current and rec.final:
+            self._current = None
+        if report and rec.source != SOURCE_SCENARIO:
             self.reports.append(rec)
-
-    def _index(self, rec: GoalReport) -> int:
-        return next(k for k, r in enumerate(self.records) if r.goal_id == rec.goal_id)
 
     def update(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> GuidanceOutput:
         """The target for the measured state at ``t_s``; :attr:`reports` are the goal
         reports this state made."""
-        self.reports = []
-        refused = self._take(t_s, sigma_bn, omega_b)
+        if self._begun != t_s:
+            self.begin(t_s, sigma_bn, omega_b)
+        self._begun = None
+        refused = self._refused_now
         assert self.guidance is not None
         out = self.guidance.update(t_s, sigma_bn, omega_b)
         self._follow(t_s)
@@ -174,17 +196,22 @@ class GoalSequence:
             out.target.status = PlannerStatus.COMPLETE
         return out
 
+    def begin(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> None:
+        """The goals judged for the state at ``t_s``, before :meth:`update` of that state
+        (which calls it when not called): the guidance in force is then this state's
+        (e.g. for the wheel budget to see it first)."""
+        self.reports, self._refused = self._refused, []
+        on_receipt = bool(self.reports)  # refused when they came: reported now
+        self._refused_now = self._take(t_s, sigma_bn, omega_b) or on_receipt
+        self._begun = t_s
+
     def hold_band(self) -> tuple[float, float] | None:
-        """The guidance's hold band, once nothing is left to fly (the offline loop's
-        held steps); None while a goal is dwelling or queued."""
-        if (
-            self.guidance is None
-            or self.incoming
-            or self.queue
-            or (self._plan and not self.complete)
-        ):
+        """The guidance's hold band once nothing is left to fly but the goal in force,
+        held until the next (the offline loop's held steps); None otherwise."""
+        if self.guidance is None or self.incoming or self.queue:
             return None
-        if self.current is not None and math.isfinite(self.current.dwell_s):
+        cur = self.current
+        if cur is not None and math.isfinite(cur.dwell_s):
             return None
         return self.guidance.hold_band()
 
@@ -193,49 +220,48 @@ class GoalSequence:
         self.guidance.held_to(t_s)
 
     def finish(self, t_s: float) -> list[GoalReport]:
-        """The run ended at ``t_s``: the goal in force and those queued get their
-        outcome (``reached`` if the body is there, else ``blocked`` or ``not_reached``)."""
+        """The run ended at ``t_s``: the goal in force and those waiting get their
+        outcome (``reached`` if the body is on it for its dwell, or with no dwell
+        bound; else ``blocked`` or ``not_reached``)."""
         self.reports = []
-        if self.current is not None:
-            k = self._index(self.current)
-            cur = self.current
-            if not math.isnan(cur.t_reach_s) and self._arrived_at is not None:
-                outcome = GoalOutcome.REACHED if math.isinf(cur.dwell_s) else self._dwelt(t_s)
+        cur = self.current
+        if cur is not None:
+            since = self._arrived_at
+            dwell = cur.dwell_s
+            if since is not None and (math.isinf(dwell) or t_s - since >= dwell - 1e-9):
+                outcome = GoalOutcome.REACHED
             elif self.guidance is not None and self.guidance.status is PlannerStatus.BLOCKED:
                 outcome = GoalOutcome.BLOCKED
             else:
                 outcome = GoalOutcome.NOT_REACHED
-            self._set(k, cur.ended(outcome, t_s))
+            assert self._current is not None
+            self._set(self._current, cur.ended(outcome, t_s))
         while self.incoming or self.queue:
             k = (self.incoming or self.queue).popleft()
-            self._set(k, self.records[k].ended(GoalOutcome.NOT_REACHED, t_s, "the run ended first"))
+            left = self.records[k].ended(GoalOutcome.NOT_REACHED, t_s, "the run ended first")
+            self._set(k, left)
         return self.reports
-
-    def _dwelt(self, t_s: float) -> GoalOutcome:
-        assert self.current is not None and self._arrived_at is not None
-        done = t_s - self._arrived_at >= self.current.dwell_s - 1e-9
-        return GoalOutcome.REACHED if done else GoalOutcome.NOT_REACHED
 
     def _take(self, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like) -> bool:
         """Judge the goals received since the last state (each preempts, or is refused),
         then, with none in force, the plan's next targets until one is; True if one was
         refused at this state."""
         refused = False
-        while self.incoming or (self.current is None and self.queue):
+        while self.incoming or (self._current is None and self.queue):
             k = (self.incoming or self.queue).popleft()
             rec = self.records[k]
             rotation = math.degrees(angle_between_single(sigma_bn, rec.sigma_goal))
             rec = replace(rec, t_start_s=t_s, rotation_deg=rotation)
-            if rec.goal_id <= 0:  # a plan's target is commanded when its turn comes
+            if rec.source == SOURCE_PLAN:  # a plan's target is commanded when its turn comes
                 rec = replace(rec, t_commanded_s=t_s)
             why = goal_clearance(self.scenario, t_s, rec.sigma_goal, rec.dwell_s)
             guidance = None if why else self._guidance(rec, t_s, sigma_bn, omega_b)
             if guidance is not None and guidance.status is PlannerStatus.INFEASIBLE:
                 why = guidance.reason
-                if rec.goal_id > 0:  # a received goal no route reaches: refused
+                if rec.source == SOURCE_TOPIC:  # a received goal no route reaches: refused
                     why = f"no route reaches it: {why}"
             if why:
-                planned = rec.goal_id <= 0 and guidance is not None
+                planned = rec.source != SOURCE_TOPIC and guidance is not None
                 outcome = GoalOutcome.INFEASIBLE if planned else GoalOutcome.REFUSED
                 refused |= outcome is GoalOutcome.REFUSED
                 self._set(k, replace(rec, t_start_s=math.nan).ended(outcome, t_s, why))
@@ -245,20 +271,20 @@ class GoalSequence:
                     hold.declare_infeasible(why)
                     self.guidance = hold
                 continue
-            if self.current is not None:
+            if self._current is not None:
                 self._close_current(t_s)
             assert guidance is not None
             self.guidance = guidance
             self._arrived_at = None
-            self.current = rec
+            self._current = k
             self._set(k, rec)
         return refused
 
     def _close_current(self, t_s: float) -> None:
         """A new goal takes over: the one in force is ``reached`` if the body is on it
         and its dwell is over (or unbounded), else ``blocked`` or ``preempted``."""
-        cur = self.current
-        assert cur is not None
+        cur, k = self.current, self._current
+        assert cur is not None and k is not None
         dwell, since = self._dwell(cur), self._arrived_at
         if since is not None and (math.isinf(dwell) or t_s - since >= dwell - 1e-9):
             outcome = GoalOutcome.REACHED
@@ -266,27 +292,27 @@ class GoalSequence:
             outcome = GoalOutcome.BLOCKED
         else:
             outcome = GoalOutcome.PREEMPTED
-        self._set(self._index(cur), cur.ended(outcome, t_s))
+        self._set(k, cur.ended(outcome, t_s))
 
     def _dwell(self, rec: GoalReport) -> float:
-        """How long ``rec`` is held once arrived, s: its dwell; a received goal's is
-        unbounded (held until the next goal), none while plan targets wait behind it."""
+        """How long ``rec`` is held once arrived, s: its dwell; a received goal's (and
+        the scenario's own) is unbounded, held until the next goal, but none while plan
+        targets wait behind it."""
         if math.isfinite(rec.dwell_s):
             return rec.dwell_s
         return 0.0 if self.queue else math.inf
 
     def _follow(self, t_s: float) -> None:
         """After the guidance's update: arrival, dwell, and a target given up."""
-        cur, g = self.current, self.guidance
-        if cur is None or g is None:
+        cur, k, g = self.current, self._current, self.guidance
+        if cur is None or k is None or g is None:
             return
-        k = self._index(cur)
         if g.status is PlannerStatus.ARRIVED:
             if self._arrived_at is None:
                 self._arrived_at = t_s
-            if math.isnan(cur.t_reach_s):
+            if math.isnan(cur.t_reach_s):  # reported: a bag's goal then knows its arrival
                 cur = replace(cur, t_reach_s=t_s)
-                self._set(k, cur, report=False)
+                self._set(k, cur)
             if t_s - self._arrived_at >= self._dwell(cur) - 1e-9:
                 self._set(k, cur.ended(GoalOutcome.REACHED, t_s))
         else:
@@ -297,35 +323,26 @@ class GoalSequence:
                 self._set(k, cur.ended(GoalOutcome.NOT_REACHED, t_s, "stuck"))
 
     def _guidance(
-        self,
-        rec: GoalReport,
-        t_s: float,
-        sigma_bn: Vec3Like,
-        omega_b: Vec3Like,
+        self, rec: GoalReport, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like
     ) -> Guidance:
         """The guidance of ``rec`` from the measured state (the profile from the body's
-        rate)."""
+        rate): with what was prepared for the scenario's first goal, when it is that."""
         scenario = self.scenario.retargeted(np.asarray(rec.sigma_goal))
         first = (
             self.prepared is not None
-            and np.allclose(rec.sigma_goal, self.scenario.desired_mrp, rtol=0.0, atol=1e-12)
             and self.guidance is None
+            and np.array_equal(rec.sigma_goal, self.scenario.desired_mrp)
         )
         guidance = guidance_from_scenario(
             scenario,
             sigma_0=sigma_bn,
             executor=self.executor,
             prepared=self.prepared if first else None,
-            routes=None if first else self._routes_for(scenario, sigma_bn),
+            routes=None if first else self._routes.get(buffer_deg(scenario, sigma_bn)),
             t0_s=t_s,
         )
-        if np.any(np.asarray(omega_b, dtype=float) != 0.0):
-            guidance.omega_prev = np.array(omega_b, dtype=float)
+        if self.guidance is not None and np.any(np.asarray(omega_b, dtype=float) != 0.0):
+            guidance.omega_prev = np.array(omega_b, dtype=float)  # a goal that takes over
         if guidance.routes is not None:
             self._routes.setdefault(guidance.routes.buffer_deg, guidance.routes)
         return guidance
-
-    def _routes_for(self, scenario: Scenario, sigma_bn: Vec3Like) -> RoutePlanner | None:
-        from attitude_core.assembly.guidance import buffer_deg
-
-        return self._routes.get(buffer_deg(scenario, sigma_bn))

@@ -85,7 +85,7 @@ RECORDER = NodeSpec(
     "attitude_bringup",
     "bag_recorder",
     "bag_recorder",
-    subscribes=tuple(topic.name for topic in t.TOPICS),
+    subscribes=tuple(topic.name for topic in t.TOPICS + t.COMMAND_TOPICS),
     publishes=(),
     parameters=params.RECORDER,
 )
@@ -94,7 +94,7 @@ PLANNER = NodeSpec(
     "attitude_planner",
     "fepf_planner",
     "fepf_planner",
-    subscribes=(t.ATTITUDE, t.ANGULAR_VELOCITY),
+    subscribes=(t.ATTITUDE, t.ANGULAR_VELOCITY, t.GOAL),  # the goal: an operator's
     publishes=(t.TARGET_MRP, t.TARGET_RATE, t.PLANNER_STATUS, t.KEEP_OUT_MARGIN, t.DIAGNOSTICS),
     parameters=params.PLANNER,
 )
@@ -272,7 +272,8 @@ def readiness(expected_subscribers: int, sensing: bool = False, wheels: bool = F
     observers = expected_subscribers - sum(
         1 for n in loop if n.role != SIMULATOR.role and state in n.subscribes
     )
-    exchanged = sorted({name for n in loop for name in n.subscribes})
+    commands = {topic.name for topic in t.COMMAND_TOPICS}  # an operator's, in the namespace
+    exchanged = sorted({name for n in loop for name in n.subscribes if name not in commands})
     subs = {name: max(sum(name in n.subscribes for n in loop) + observers, 0) for name in exchanged}
     pubs = {
         name: 1

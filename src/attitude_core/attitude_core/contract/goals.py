@@ -1,10 +1,12 @@
 """The goal contract: one goal's report, as ``summary.json`` ``goals``, ``/diagnostics``
 and the bag reader know it, defined once (:class:`GoalReport`).
 
-A goal is a plan's target (``plan.<name>``) or a ``/planner/goal`` message
-(``geometry_msgs/QuaternionStamped``, frame ``inertial``, the body's attitude in the
-inertial frame, x y z w: :data:`GOAL_FRAME`). Its id is the goal message's header stamp
-(ns), or ``-(k + 1)`` for the plan's target ``k``; its name the plan name, or
+A goal is a plan's target (``plan.<name>``, source ``plan``), a ``<run
+namespace>/planner/goal`` message (``geometry_msgs/QuaternionStamped``, frame
+``inertial``, the body's attitude in the inertial frame, x y z w: :data:`GOAL_FRAME`;
+source ``topic``) or the scenario's own ``desired_mrp`` (source ``scenario``: flown first
+when there is no plan, never in ``summary.json`` ``goals``). Its id is the goal
+message's header stamp (ns), or the plan target's index; its name the plan name, or
 ``goal@<stamp s>``. The planner publishes a ``DiagnosticStatus`` named
 :data:`GOAL_DIAGNOSTIC_NAME` when a goal is taken (``accepted``) and when it ends (its
 :class:`~attitude_core.contract.status.GoalOutcome`), stamped with the state that
@@ -21,14 +23,27 @@ from typing import Any
 
 from attitude_core.contract.status import GoalOutcome
 
-__all__ = ["GOAL_DIAGNOSTIC_NAME", "GOAL_FRAME", "GoalReport", "goal_name"]
+__all__ = [
+    "GOAL_DIAGNOSTIC_NAME",
+    "GOAL_FRAME",
+    "GoalReport",
+    "goal_name",
+    "SOURCE_PLAN",
+    "SOURCE_SCENARIO",
+    "SOURCE_TOPIC",
+]
+
+SOURCE_PLAN = "plan"  # a target of the scenario's plan.*
+SOURCE_SCENARIO = "scenario"  # the scenario's own desired_mrp
+SOURCE_TOPIC = "topic"  # a goal message received on <run namespace>/planner/goal
 
 GOAL_DIAGNOSTIC_NAME = "planner/goal"
 """``DiagnosticStatus.name`` of the planner's goal reports."""
 GOAL_FRAME = "inertial"
 """The ``header.frame_id`` a goal must carry (the attitude's frame)."""
 
-_FLOATS = ("t_commanded_s", "t_start_s", "t_reach_s", "t_end_s", "rotation_deg", "dwell_s")
+_TIMES = ("t_commanded_s", "t_start_s", "t_reach_s", "t_end_s")
+_FLOATS = (*_TIMES, "rotation_deg", "dwell_s")
 
 
 def goal_name(stamp_ns: int) -> str:
@@ -44,6 +59,7 @@ class GoalReport:
     the rotation from the body's attitude when it came in force to the goal (deg) and
     the reason of a refusal or an infeasible goal."""
 
+    source: str  # SOURCE_PLAN, SOURCE_SCENARIO or SOURCE_TOPIC
     goal_id: int
     name: str
     sigma_goal: tuple[float, float, float]
@@ -55,6 +71,14 @@ class GoalReport:
     t_end_s: float = math.nan
     rotation_deg: float = math.nan
     reason: str = ""
+    origin_ns: int = 0  # the stamp of the planner's first state: its times' zero
+
+    def rebased(self, origin_ns: int) -> GoalReport:
+        """The same report with its times counted from the stamp ``origin_ns`` (a
+        recording's first step) instead of the planner's first state."""
+        shift = (self.origin_ns - origin_ns) * 1e-9
+        moved = {key: getattr(self, key) + shift for key in _TIMES}
+        return replace(self, origin_ns=origin_ns, **moved)
 
     @property
     def final(self) -> bool:
@@ -70,12 +94,14 @@ class GoalReport:
     def diagnostic_values(self) -> list[tuple[str, str]]:
         """Its ``/diagnostics`` key/values (floats by ``repr``: round-trip exact)."""
         return [
+            ("source", self.source),
             ("goal_id", str(self.goal_id)),
             ("name", self.name),
             ("outcome", self.outcome.value),
             ("sigma_goal", " ".join(repr(float(x)) for x in self.sigma_goal)),
             *((key, repr(float(getattr(self, key)))) for key in _FLOATS),
             ("reason", self.reason),
+            ("origin_ns", str(self.origin_ns)),
         ]
 
     @classmethod
@@ -87,11 +113,13 @@ class GoalReport:
                 raise ValueError(f"sigma_goal has {len(sigma)} numbers, not 3")
             floats = {key: float(values[key]) for key in _FLOATS}
             return cls(
+                source=values["source"],
                 goal_id=int(values["goal_id"]),
                 name=values["name"],
                 sigma_goal=(sigma[0], sigma[1], sigma[2]),
                 outcome=GoalOutcome.parse(values["outcome"]),
                 reason=values.get("reason", ""),
+                origin_ns=int(values.get("origin_ns", "0")),
                 **floats,
             )
         except KeyError as err:
@@ -111,6 +139,7 @@ class GoalReport:
             "t_reach_s": num(self.t_reach_s),
             "min_margin_deg": min_margin_deg,
             "rotation_deg": num(self.rotation_deg),
+            "source": self.source,
             "goal_id": self.goal_id,
             "t_start_s": num(self.t_start_s),
             "t_end_s": num(self.t_end_s),

@@ -24,7 +24,16 @@ topic                               type                             publisher
 ``/spacecraft/applied_torque``      geometry_msgs/msg/WrenchStamped  simulator
 ``/spacecraft/wheel_states``        sensor_msgs/msg/JointState       simulator with wheels (or HIL)
 ``/controller/wheel_torque``        sensor_msgs/msg/JointState       controller with wheels
+``<ns>/planner/goal``               geometry_msgs/msg/QuaternionStamped  an operator (read by
+                                                                     the planner; recorded)
 ==================================  ===============================  ==========================
+
+``<ns>/planner/goal`` is the one topic resolved in the run's namespace (``<ns>``, the
+namespace ``attitude-run`` starts the nodes in; ``/`` for nodes started by hand): a goal
+attitude, the body in the inertial frame as ``/spacecraft/attitude`` (x y z w), frame
+``inertial``, its header stamp the goal's id. The planner judges it at the next state
+(:mod:`attitude_core.assembly.goal_sequence`) and reports it on ``/diagnostics``
+(:mod:`attitude_core.contract.goals`). The bag records it as ``/planner/goal``.
 
 Every stamped message of one step carries the stamp of the state it answers.
 
@@ -80,6 +89,7 @@ TRUTH_ATTITUDE = "/spacecraft/truth/attitude"  # the true state (with sensors), 
 TRUTH_ANGULAR_VELOCITY = "/spacecraft/truth/angular_velocity"
 WHEEL_STATES = "/spacecraft/wheel_states"  # the wheels' speeds and applied torques
 WHEEL_TORQUE = "/controller/wheel_torque"  # the commanded motor torques
+GOAL = "/planner/goal"  # a commanded goal; subscribed relative: <run namespace>/planner/goal
 
 INERTIAL_FRAME = "inertial"  # N
 BODY_FRAME = "body"  # B
@@ -116,6 +126,12 @@ class Topic(NamedTuple):
     stamped: bool  # first field is a header (or a Time): the recorder logs at that stamp
     latched: bool = False
     frame: str | None = None  # the header's frame_id, checked by the receivers
+    relative: bool = False  # resolved in the node's namespace (the run's), not absolute
+
+    @property
+    def node_name(self) -> str:
+        """The name a node creates its endpoint with: relative ones in its namespace."""
+        return self.name.lstrip("/") if self.relative else self.name
 
 
 TOPICS = (
@@ -138,9 +154,20 @@ TOPICS = (
 )
 
 
+COMMAND_TOPICS = (
+    # The goal: the header stamp is the goal's id, not on the run's timeline (the
+    # recorder logs it at the latest stamp); subscribed reliable, volatile, keep last
+    # GOAL_DEPTH, so a default rclpy publisher and `ros2 topic pub` reach it.
+    Topic(GOAL, "geometry_msgs/msg/QuaternionStamped", False, frame=INERTIAL_FRAME, relative=True),
+)
+"""Topics an operator publishes (no node of the graph does): recorded like the others,
+each under its contract name."""
+GOAL_DEPTH = 10
+
+
 def topic(name: str) -> Topic:
     """The contract entry of a topic name (KeyError if none)."""
-    for t in TOPICS:
+    for t in TOPICS + COMMAND_TOPICS:
         if t.name == name:
             return t
     raise KeyError(name)

@@ -14,12 +14,19 @@ from typing import Any
 
 import numpy as np
 
-from attitude_core.contract.goals import GoalReport
-from attitude_core.contract.status import GoalOutcome
+from attitude_core.contract.goals import SOURCE_PLAN, GoalReport
+from attitude_core.contract.status import GoalOutcome, PlannerStatus
 from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_core.record.trajectory import RunResult
 
-__all__ = ["goal_entries", "final_goal", "in_force_rows", "goal_in_force", "plan_reached"]
+__all__ = [
+    "final_goals",
+    "goal_entries",
+    "final_goal",
+    "in_force_rows",
+    "goal_in_force",
+    "plan_reached",
+]
 
 
 def in_force_rows(run: RunResult, goal: GoalReport) -> slice:
@@ -43,11 +50,31 @@ def goal_in_force(run: RunResult) -> np.ndarray:
     return out
 
 
-def goal_entries(run: RunResult) -> list[dict[str, Any]]:
-    """``summary.json`` ``goals``: each goal's report and its dense smallest margin on
-    the body while it was in force (None if it never was)."""
-    entries = []
+def final_goals(run: RunResult) -> list[GoalReport]:
+    """``run.goals`` with an outcome each: a goal whose last report is ``accepted`` (a
+    recording that ended while it was in force or waiting, e.g. stopped by the operator)
+    ends at the run's end: ``reached`` if the body had arrived (a goal held until the
+    next), else ``blocked`` if the planner said so last, else ``not_reached``."""
+    t_end = float(run.t[-1])
+    last = int(run.planner_status[-1]) if len(run.planner_status) else -1
+    out = []
     for goal in run.goals:
+        if not goal.final:
+            if not math.isnan(goal.t_reach_s) and math.isinf(goal.dwell_s):
+                goal = goal.ended(GoalOutcome.REACHED, t_end)
+            elif last == PlannerStatus.BLOCKED.code and not math.isnan(goal.t_start_s):
+                goal = goal.ended(GoalOutcome.BLOCKED, t_end)
+            else:
+                goal = goal.ended(GoalOutcome.NOT_REACHED, t_end, goal.reason or "the run ended")
+        out.append(goal)
+    return out
+
+
+def goal_entries(run: RunResult) -> list[dict[str, Any]]:
+    """``summary.json`` ``goals``: each goal's report (:func:`final_goals`) and its dense
+    smallest margin on the body while it was in force (None if it never was)."""
+    entries = []
+    for goal in final_goals(run):
         rows = in_force_rows(run, goal)
         margin = None
         if rows.stop > rows.start:
@@ -70,6 +97,6 @@ def final_goal(run: RunResult) -> np.ndarray:
 
 def plan_reached(run: RunResult) -> tuple[bool, float | None]:
     """Every plan target reached, and the last one's arrival time."""
-    planned = [g for g in run.goals if g.goal_id < 0]
+    planned = [g for g in final_goals(run) if g.source == SOURCE_PLAN]
     reached = bool(planned) and all(g.outcome is GoalOutcome.REACHED for g in planned)
     return reached, (planned[-1].t_reach_s if reached else None)

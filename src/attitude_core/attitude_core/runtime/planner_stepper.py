@@ -26,30 +26,40 @@ lines to log.
 
 from __future__ import annotations
 
+import math
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import numpy.typing as npt
 
+from attitude_core.assembly.goal_sequence import GoalSequence
 from attitude_core.assembly.guidance import (
     PreparedGuidance,
-    guidance_from_scenario,
     prepare_guidance,
 )
 from attitude_core.assembly.guidance_limits import WheelBudget
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.diagnostics import PlannerDiagnostics
 from attitude_core.contract.faults import Fault
+from attitude_core.contract.goals import GOAL_FRAME, GoalReport, goal_name
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import NS_PER_S
 from attitude_core.fsw.fdir.state_watchdog import FdirMode, StateWatchdog
 from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.fsw.guidance.guidance_base import Executor, GuidanceOutput
+from attitude_core.models.mrp import mrp_from_quat_single
 from attitude_core.runtime.planner_report import planner_diagnostics
 
-__all__ = ["PlannerStep", "PlannerReport", "PlannerStepper", "PlannerTick"]
+__all__ = [
+    "PlannerStep",
+    "PlannerReport",
+    "PlannerStepper",
+    "PlannerTick",
+    "goal_log",
+    "GOAL_NORM_TOL",
+]
 
 Vector = npt.NDArray[np.float64]
 Logs = list[tuple[str, str]]
@@ -69,6 +79,7 @@ class PlannerStep:
     step_s: float = 0.0  # wall time of the guidance update, s
     logs: Logs = field(default_factory=list)
     faults: list[Fault] = field(default_factory=list)  # the faults this state ended
+    goals: list[GoalReport] = field(default_factory=list)  # the goal reports it made
 
     @property
     def held(self) -> bool:
@@ -96,6 +107,19 @@ class PlannerReport:
     logs: Logs
 
 
+GOAL_NORM_TOL = 1e-6
+"""How far a goal quaternion's norm may be from 1."""
+
+
+def goal_log(goal: GoalReport) -> tuple[str, str]:
+    """The log line of a goal report, at its outcome's level."""
+    level = {0: "info", 1: "warning"}.get(int(goal.outcome.level), "error")
+    if not goal.final and not math.isnan(goal.t_reach_s):
+        return level, f"goal {goal.name} arrived at {goal.t_reach_s:.3f} s"
+    why = f": {goal.reason}" if goal.reason else ""
+    return level, f"goal {goal.name} {goal.outcome}{why}"
+
+
 _KEPT_WHEEL_STEPS = 16
 """Wheel commands and states kept to judge a step whose pieces come out of order."""
 
@@ -111,12 +135,6 @@ class PlannerStepper:
         prepared: PreparedGuidance | None = None,
         executor: Executor | None = None,
     ) -> None:
-        if scenario.plan:
-            raise ValueError(
-                f"{scenario.source}: 'plan.names': the planner node does not fly an "
-                "observation plan yet (it would fly its first target only): use "
-                "attitude-offline or attitude-campaign"
-            )
         self.scenario = scenario
         self.prepared = prepare_guidance(scenario) if prepared is None else prepared
         self.own_thread: ThreadPoolExecutor | None = None
@@ -124,7 +142,10 @@ class PlannerStepper:
             self.own_thread = ThreadPoolExecutor(max_workers=1, thread_name_prefix="route")
             executor = self.own_thread
         self.executor = executor
-        self.guidance: Guidance | None = None
+        # The goals (the plan's, or the scenario's own, then those received), one in
+        # force, each with its guidance: built at the first state.
+        self.sequence = GoalSequence(scenario, self.prepared, executor)
+        self.started = False
         self.first_stamp_ns = 0
         self.last_stamp_ns = 0  # the last state stepped
         self.status: PlannerStatus | None = None
@@ -137,9 +158,43 @@ class PlannerStepper:
         self.wheel_states: dict[int, tuple[Vector, Vector, Vector]] = {}
         self.wheel_stamp: int | None = None  # the state the wheel budget last saw
 
+    @property
+    def guidance(self) -> Guidance | None:
+        """The guidance of the goal in force (None before the first state)."""
+        return self.sequence.guidance
+
     def takes_input(self, active: bool) -> bool:
         """Active, or deactivated after its first target: it then holds that target."""
         return active or self.guidance is not None
+
+    def command(
+        self, goal_id: int, frame: str, xyzw: tuple[float, float, float, float]
+    ) -> list[GoalReport]:
+        """A goal message (``<run namespace>/planner/goal``: the goal's id, its header
+        stamp in ns; its frame; the body's attitude in the inertial frame, x y z w). A
+        malformed one (frame, non-finite, norm off 1 by more than
+        :data:`GOAL_NORM_TOL`) is refused at once, the goal in force kept: its report
+        is returned. A well-formed one is judged at the next state."""
+        t_s = 0.0 if not self.started else (self.last_stamp_ns - self.first_stamp_ns) / NS_PER_S
+        name = goal_name(goal_id)
+        norm = math.sqrt(sum(v * v for v in xyzw))
+        why = ""
+        if frame != GOAL_FRAME:
+            why = f"frame_id {frame!r}, not {GOAL_FRAME!r} (the body's attitude in it)"
+        elif not all(math.isfinite(v) for v in xyzw):
+            why = f"quaternion not finite: {list(xyzw)}"
+        elif abs(norm - 1.0) > GOAL_NORM_TOL:
+            why = f"quaternion norm {norm:.9g}, not 1 within {GOAL_NORM_TOL:g}"
+        if why:
+            sigma = (
+                (math.nan,) * 3
+                if not math.isfinite(norm) or norm == 0.0
+                else mrp_from_quat_single(*xyzw)
+            )
+            self.sequence.refuse(goal_id, name, sigma, t_s, why)
+            return [replace(self.sequence.records[-1], origin_ns=self.first_stamp_ns)]
+        self.sequence.command(goal_id, name, mrp_from_quat_single(*xyzw), t_s)
+        return []
 
     def step(
         self,
@@ -161,22 +216,29 @@ class PlannerStepper:
             return PlannerStep(stamp_ns, t_s, sigma_bn, held, np.zeros(3), faults=ended)
         logs: Logs = []
         t_s = (stamp_ns - self.first_stamp_ns) / NS_PER_S
-        if self.guidance is None:
-            self.guidance = self._start(stamp_ns, sigma_bn, logs)
-            t_s = 0.0
-        elif ended:  # states back after a gap: the guidance goes on from this one
+        first = not self.started
+        if first:
+            self.started, self.first_stamp_ns, t_s = True, stamp_ns, 0.0
+            logs.append(("info", f"planning from sigma_BN = {sigma_bn.round(6).tolist()}"))
+        elif ended and self.guidance is not None:  # states back after a gap: go on from it
             self.guidance.resume(t_s, sigma_bn, omega_b)
             logs += [("info", f"states back: {f.detail}") for f in ended]
+        before = self.guidance
+        self.sequence.begin(t_s, sigma_bn, omega_b)  # the goal in force for this state
         if wheels is not None and self.wheels is not None:
             self._wheel_state(stamp_ns, sigma_bn, wheels, logs)
         t0 = time.perf_counter()
-        result = self.guidance.update(t_s, sigma_bn, omega_b)
+        result = self.sequence.update(t_s, sigma_bn, omega_b)
         step_s = time.perf_counter() - t0
+        if self.guidance is not before:  # a goal came in force: its route
+            self._route_logs(logs)
+        goals = [replace(g, origin_ns=self.first_stamp_ns) for g in self.sequence.reports]
+        logs += [goal_log(g) for g in goals]
         self.last_stamp_ns = stamp_ns
         self.sigma_t = np.array(result.target.sigma_t, dtype=float)
         omega_t = np.array(result.target.omega_t, dtype=float)
         return PlannerStep(
-            stamp_ns, t_s, sigma_bn, self.sigma_t, omega_t, result, step_s, logs, ended
+            stamp_ns, t_s, sigma_bn, self.sigma_t, omega_t, result, step_s, logs, ended, goals
         )
 
     def wheel_command(self, stamp_ns: int, motor_torque_nm: Vector) -> list[tuple[str, str]]:
@@ -274,14 +336,10 @@ class PlannerStepper:
             logs.append(("info", f"status {changed} {at}"))
         return PlannerReport(margin, diag, changed, logs)
 
-    def _start(self, stamp_ns: int, sigma_bn: Vector, logs: Logs) -> Guidance:
-        """The guidance from the first measured attitude; its stamp starts the clock."""
-        guidance = guidance_from_scenario(
-            self.scenario, sigma_0=sigma_bn, executor=self.executor, prepared=self.prepared
-        )
-        self.first_stamp_ns = stamp_ns
-        logs.append(("info", f"planning from sigma_BN = {sigma_bn.round(6).tolist()}"))
-        route = guidance.route
+    def _route_logs(self, logs: Logs) -> None:
+        """The route of the guidance that just came in force (or why there is none)."""
+        guidance = self.guidance
+        route = None if guidance is None else guidance.route
         if route is not None and route.feasible:
             logs.append(
                 (
@@ -293,7 +351,6 @@ class PlannerStepper:
             )
         elif route is not None:
             logs.append(("error", f"infeasible: {route.reason}"))
-        return guidance
 
     def close(self) -> None:
         """Stop its own route thread (a route in progress is dropped)."""

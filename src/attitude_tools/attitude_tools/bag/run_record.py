@@ -55,6 +55,7 @@ from attitude_core.contract.diagnostics import (
     STATUS_NAME,
     PlannerDiagnostics,
 )
+from attitude_core.contract.goals import GOAL_DIAGNOSTIC_NAME, GoalReport
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.contract.topics import (
     ANGULAR_VELOCITY,
@@ -131,10 +132,14 @@ def run_from_bag(
     by_topic: dict[str, dict[int, Any]] = {t: {} for t in _TOPICS}  # deserialized messages
     three_sigma: dict[int, float] = {}  # the estimator's, by stamp
     walls: dict[str, dict[int, int]] = {ATTITUDE: {}, TRUTH_ATTITUDE: {}}  # first receipt
+    goals: dict[tuple[str, int, str, float], GoalReport] = {}  # in order of first report
     for m in read_bag(bag_dir, list(by_topic)):
         stamp = stamp_ns(m.msg.header.stamp)
         if m.topic == DIAGNOSTICS:
             for st in m.msg.status:
+                if st.name == GOAL_DIAGNOSTIC_NAME:  # a goal's report: its last is its record
+                    goal = GoalReport.from_values({kv.key: kv.value for kv in st.values})
+                    goals[(goal.source, goal.goal_id, goal.name, goal.t_commanded_s)] = goal
                 if st.name == ESTIMATOR_STATUS_NAME:
                     values = {kv.key: kv.value for kv in st.values}
                     three_sigma[stamp] = float(values.get(ATTITUDE_3SIGMA_DEG, "nan"))
@@ -210,6 +215,7 @@ def run_from_bag(
         wall_time_s=wall_time_s,
         planner_reason=reason,
         route_rotation_deg=route_deg,
+        goals=[g.rebased(int(stamps[0])) for g in goals.values()],  # on the bag's clock
     )
     fed = sorted(estimated[ATTITUDE]) if sensing else list(states[:n])
     run.faults = faults_from_stamps(

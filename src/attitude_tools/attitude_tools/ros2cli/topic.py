@@ -1,4 +1,5 @@
-"""``ros2 topic list|echo|hz`` of the shim (ros2topic's output; echo and hz in own modules).
+"""``ros2 topic list|echo|hz|pub`` of the shim (ros2topic's output; echo, hz and pub in
+own modules).
 
 ``list [-t|--show-types] [-c|--count-topics] [--include-hidden-topics] [--spin-time S]``:
 sorted names, with ``-t`` as ``name [pkg/msg/Type]``. Differs from ros2cli: no ``-v``
@@ -14,7 +15,7 @@ from collections.abc import Sequence
 from rclpy.node import Node
 from rclpy.topic_or_service_is_hidden import topic_or_service_is_hidden
 
-from attitude_tools.ros2cli import echo, hz
+from attitude_tools.ros2cli import echo, hz, pub
 from attitude_tools.ros2cli.cli import add_spin_time, run_subverb
 from attitude_tools.ros2cli.graph import graph_node
 
@@ -58,6 +59,7 @@ def parser() -> argparse.ArgumentParser:
     p.set_defaults(handler=_list)
     echo.add_parser(verbs)
     hz.add_parser(verbs)
+    pub.add_parser(verbs)
     return top
 
 

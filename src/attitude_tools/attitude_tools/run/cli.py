@@ -86,6 +86,7 @@ def run_scenario(
     external_estimate: bool = False,
     plant_nodes: tuple[str, ...] = (),
     hold: bool = False,
+    until_stopped: bool = False,
 ) -> tuple[dict[str, Any], Path]:
     """Run one scenario through the node graph; return (summary, run directory).
 
@@ -104,7 +105,9 @@ def run_scenario(
     single node publishing both state topics is adopted). The nodes are managed: the
     run's lifecycle manager configures them, checks the run, activates them in start
     order (``hold``: only when the operator sends SIGUSR1) and brings them down in
-    reverse.
+    reverse. ``until_stopped``: the run does not end on arrival (nor, with a plan, on its
+    completion): it flies the goals it is sent on ``<namespace>/planner/goal`` until
+    SIGINT or SIGTERM (or the scenario's ``sim_time_s``), then ends as usual.
     """
     req = RunRequest(
         scenario_path=scenario_path,
@@ -120,6 +123,7 @@ def run_scenario(
         external_estimate=external_estimate,
         plant_nodes=plant_nodes,
         hold=hold,
+        until_stopped=until_stopped,
     )
     inputs = check_inputs(req)  # nothing written or started before this passes
     staged = stage_run(req, inputs, ros_environment(workspace))
@@ -225,6 +229,15 @@ def _parser() -> argparse.ArgumentParser:
         "estimator is started (default: the plant publishes the raw sensors and the "
         "estimator node filters them; docs/hil_bridge.md)",
     )
+    parser.add_argument(
+        "--until-stopped",
+        action="store_true",
+        help="do not end on arrival (nor on a plan's completion): fly the goals sent on "
+        "<run namespace>/planner/goal (geometry_msgs/QuaternionStamped, frame inertial) "
+        "until SIGINT or SIGTERM, or the scenario's sim_time_s; then stop the nodes, close "
+        "the bag and write summary.json (goals: each goal and its outcome); exit 0 if the "
+        "body never entered a keep-out",
+    )
     parser.add_argument("--quiet", action="store_true", help="do not print the summary")
     return parser
 
@@ -284,6 +297,7 @@ def main(argv: list[str] | None = None) -> int:
             external_estimate=args.external_estimate,
             plant_nodes=tuple(args.plant_node),
             hold=args.hold,
+            until_stopped=args.until_stopped,
         )
     except (
         ParameterError,
@@ -303,16 +317,33 @@ def main(argv: list[str] | None = None) -> int:
     if summary["planner_infeasible"]:
         print(f"attitude-run: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
         return 1
-    ok = summary["reached"] and summary["min_margin_deg"] > 0.0 and not summary["failure"]
+    ok = _succeeded(summary, args.until_stopped)
     if not ok:  # said on stderr even with --quiet: a failed run never ends silently
         print(f"attitude-run: failed: {_failure_line(summary)}", file=sys.stderr)
     return 0 if ok else 1
 
 
-def _failure_line(summary: dict[str, object]) -> str:
+def _succeeded(summary: dict[str, Any], until_stopped: bool) -> bool:
+    """A finished run's success: no keep-out entered on the body and no failure; and,
+    unless stopped by the operator, the goal reached, or with goals every one of them
+    reached, refused or infeasible (a plan's skipped targets are on record)."""
+    safe = summary["min_margin_deg"] > 0.0 and not summary["failure"]
+    if until_stopped or not safe:
+        return safe
+    goals = summary.get("goals") or []
+    if goals:
+        return all(g["outcome"] in ("reached", "refused", "infeasible") for g in goals)
+    return bool(summary["reached"])
+
+
+def _failure_line(summary: dict[str, Any]) -> str:
     """Why a finished run is a failure, from its summary."""
     if summary["failure"]:
         return str(summary["failure"])
+    goals = summary.get("goals") or []
+    missed = [g for g in goals if g["outcome"] not in ("reached", "refused", "infeasible")]
+    if missed:
+        return f"goal {missed[0]['name']} {missed[0]['outcome']} ({summary['end_reason']})"
     if not summary["reached"]:
         return f"goal not reached ({summary['end_reason']})"
     return f"keep-out margin {summary['min_margin_deg']} deg on the body"

@@ -15,6 +15,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import signal
@@ -108,6 +109,7 @@ class RunRequest:
     external_estimate: bool = False  # an external plant feeds its own estimate
     plant_nodes: tuple[str, ...] = ()  # an external plant's nodes, named (any namespace)
     hold: bool = False  # stop after configure and the checks until the operator says go
+    until_stopped: bool = False  # no end on arrival: goals until SIGINT/SIGTERM (or sim time)
 
 
 @dataclass(frozen=True)
@@ -182,13 +184,6 @@ def check_inputs(req: RunRequest) -> CheckedInputs:
             "missing: an external estimate needs the sensors it comes from (sensors.*: the "
             "guidance's knowledge bounds)",
         )
-    if scenario.plan:
-        raise ScenarioError(
-            req.scenario_path,
-            "plan.names",
-            "an observation plan is flown by attitude-offline and attitude-campaign; the "
-            "nodes do not fly plans yet (they would fly its first target only)",
-        )
     nodes = graph.graph(
         scenario.sensors is not None and not req.external_estimate, scenario.wheels is not None
     )
@@ -209,6 +204,8 @@ def stage_run(req: RunRequest, inputs: CheckedInputs, env: dict[str, str]) -> St
     reservation = claim_domain(env, sys.executable)  # DomainBusyError: nothing written
     sweep_orphan_segments()  # Fast DDS segments of node processes that are gone
     timeout_s = req.timeout_s
+    if timeout_s is None and req.until_stopped:  # the operator ends it (or the sim time)
+        timeout_s = math.inf
     if timeout_s is None:  # an external plant may run in real time in either mode
         paced = req.time_mode == "realtime" or req.plant == PLANT_EXTERNAL
         timeout_s = 120.0 + (1.5 * inputs.scenario.sim_time_s if paced else 0.0)
@@ -298,16 +295,29 @@ def _preload() -> None:
     threading.Thread(target=load, name="preload", daemon=True).start()
 
 
-def _own_args(req: RunRequest, tmp: Path, nodes: graph.Graph) -> dict[str, list[str]]:
+def stop_statuses(req: RunRequest, scenario: Scenario) -> tuple[PlannerStatus, ...]:
+    """The planner statuses that end the recording (after ``--settle-s``): every
+    ending status of a single slew; with a plan, its completion (or safe mode); with
+    ``--until-stopped``, none (the operator ends the run)."""
+    if req.until_stopped:
+        return ()
+    if scenario.plan:
+        return (PlannerStatus.COMPLETE, PlannerStatus.SAFE_MODE)
+    return PlannerStatus.ending()
+
+
+def _own_args(
+    req: RunRequest, tmp: Path, nodes: graph.Graph, scenario: Scenario
+) -> dict[str, list[str]]:
     """The parameters ``attitude-run`` sets itself: the recorder's and the simulator's."""
-    ending = ",".join(status.value for status in PlannerStatus.ending())
+    ending = _string_list([status.value for status in stop_statuses(req, scenario)])
     wait_for_plant_s = float(req.plant_timeout_s) if req.plant == PLANT_EXTERNAL else 0.0
     return {
         graph.RECORDER.role: [
             "-p",
             f"output_dir:={tmp / 'bag'}",
             "-p",
-            f"stop_on_planner_status:=[{ending}]",
+            f"stop_on_planner_status:={ending}",
             "-p",
             f"stop_delay_s:={float(req.settle_s)!r}",
             "-p",
@@ -360,7 +370,7 @@ def _start_nodes(
     """Start the nodes (unconfigured) in start order, in the run's namespace, then their
     lifecycle manager; say where they run."""
     params = ["--params-file", str(Path(req.scenario_path).resolve())]
-    own_args = _own_args(req, staged.tmp, inputs.nodes)
+    own_args = _own_args(req, staged.tmp, inputs.nodes, inputs.scenario)
     plants = ["-p", f"plant_nodes:={_string_list(req.plant_nodes)}"] if req.plant_nodes else []
     for spec in inputs.started:  # in start order
         scenario_args = params if spec.parameters.scenario is not None else []
@@ -429,6 +439,8 @@ def _wait_for_end(
             go.clear()
             bringup.link.send("activate")
         held = bringup.held_s + (time.monotonic() - held_since if held_since else 0.0)
+        if stop_requested and req.until_stopped:
+            return "stopped by the operator", None
         if stop_requested:
             return "interrupted", "interrupted"
         elif exited.get(graph.RECORDER.role) == 0:
