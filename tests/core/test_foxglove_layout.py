@@ -20,12 +20,15 @@ import pytest
 
 from attitude_core.contract import diagnostics, topics
 from attitude_core.contract.faults import FaultKind
-from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
+from attitude_core.contract.goals import GOAL_DIAGNOSTIC_NAME, GoalReport
+from attitude_core.contract.status import DiagnosticLevel, GoalOutcome, PlannerStatus
 
 ROOT = Path(__file__).resolve().parents[2]
 LAYOUT_FILE = ROOT / "docs" / "foxglove_layout.json"
 
-CONTRACT = {t.name: t for t in topics.TOPICS}
+CONTRACT = {t.name: t for t in topics.TOPICS + topics.COMMAND_TOPICS}
+_GOAL = GoalReport("topic", 1, "goal@1", (0.0, 0.0, 0.0), 1.0, GoalOutcome.ACCEPTED, 0.0)
+GOAL_KEYS = {key for key, _ in _GOAL.diagnostic_values()}  # a goal report's /diagnostics keys
 KNOWN_PANEL_TYPES = {
     "Plot",
     "StateTransitions",
@@ -471,6 +474,7 @@ def test_diagnostics_names_match_the_planner(layout):
     names of the diagnostics contract."""
     literals = {diagnostics.STATUS_NAME, diagnostics.HARDWARE_ID, *diagnostics.KEYS}
     literals |= {kind.diagnostic_name for kind in FaultKind}
+    literals |= {GOAL_DIAGNOSTIC_NAME, *GOAL_KEYS}
     for panel_id, config in layout["configById"].items():
         for path, _ in message_paths(panel_id, config):
             topic, elements = parse_message_path(path)
@@ -493,7 +497,8 @@ def test_status_states_are_the_planner_statuses(layout):
     panels = [
         c
         for k, c in layout["configById"].items()
-        if panel_type(k) == "StateTransitions" and k != "StateTransitions!faults"
+        if panel_type(k) == "StateTransitions"
+        and k not in ("StateTransitions!faults", "StateTransitions!goals")
     ]
     assert panels
     for config in panels:

@@ -22,6 +22,7 @@ from attitude_core.contract.diagnostics import KEYS, PlannerDiagnostics
 from attitude_core.contract.faults import FaultKind
 from attitude_core.contract.status import DiagnosticLevel, PlannerStatus
 from attitude_ros import endpoints as endpoints_module
+from attitude_ros.goal_intake import subscribe_goal
 from attitude_ros.intake import subscribe_paired, subscribe_wheel_torque
 from attitude_ros.torque_out import TorqueOut
 from attitude_ros.wheel_msgs import WheelTorqueOut, wheel_inputs
@@ -29,9 +30,12 @@ from attitude_ros.wheel_msgs import WheelTorqueOut, wheel_inputs
 ROOT = Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
 TOPIC_NAMES = {topic.name for topic in t.TOPICS}
+COMMAND_NAMES = {topic.name for topic in t.COMMAND_TOPICS}  # an operator's (the goal)
 # Constants of attitude_core.contract.topics that name a contract topic (c.ATTITUDE, ...).
 TOPIC_CONSTANTS = {
-    k: v for k, v in vars(t).items() if k.isupper() and isinstance(v, str) and v in TOPIC_NAMES
+    k: v
+    for k, v in vars(t).items()
+    if k.isupper() and isinstance(v, str) and v in TOPIC_NAMES | COMMAND_NAMES
 }
 # ... and those that name a tuple of them (c.STATE_TOPICS, c.SENSOR_TOPICS, ...).
 TOPIC_TUPLES = {
@@ -271,7 +275,8 @@ def test_node_module_is_a_real_file_with_main(spec):
 @pytest.mark.parametrize("spec", g.SENSING_NODES, ids=lambda s: s.role)
 def test_node_topics_are_contract_topics(spec):
     for name in spec.subscribes + spec.publishes:
-        assert name in TOPIC_NAMES, name
+        assert name in TOPIC_NAMES | COMMAND_NAMES, name
+    assert not set(spec.publishes) & COMMAND_NAMES  # an operator's, never a node's
     assert len(set(spec.subscribes)) == len(spec.subscribes)
     assert len(set(spec.publishes)) == len(spec.publishes)
 
@@ -288,13 +293,16 @@ def test_every_loop_subscription_is_published():
     assert state <= set(g.SIMULATOR.publishes)
     for spec in g.LOOP:
         for name in spec.subscribes:
+            if name in COMMAND_NAMES:  # an operator publishes it
+                continue
             assert name in published or name in state, (spec.role, name)
             publishers = [n for n in g.NODES if name in n.publishes]
             assert spec not in publishers, (spec.role, name)  # no node feeds itself
 
 
 def test_recorder_records_every_topic_and_publishes_nothing():
-    assert set(g.RECORDER.subscribes) == TOPIC_NAMES and g.RECORDER.publishes == ()
+    assert set(g.RECORDER.subscribes) == TOPIC_NAMES | COMMAND_NAMES
+    assert g.RECORDER.publishes == ()
 
 
 def test_state_listeners():
@@ -365,6 +373,7 @@ HELPERS = {
     wheel_inputs.__name__: ("sub", {t.WHEEL_STATES}),  # a paired input row
     TorqueOut.__name__: ("pub", {t.TORQUE, t.WHEEL_TORQUE}),  # the latter with wheels
     WheelTorqueOut.__name__: ("pub", {t.WHEEL_TORQUE}),
+    subscribe_goal.__name__: ("sub", {t.GOAL}),
 }
 
 
@@ -374,6 +383,8 @@ def _topic_constants_in(node: ast.AST) -> set[str]:
         if isinstance(sub, ast.Attribute):
             if sub.attr == "TOPICS":
                 names |= TOPIC_NAMES
+            elif sub.attr == "COMMAND_TOPICS":
+                names |= COMMAND_NAMES
             elif sub.attr in TOPIC_CONSTANTS:
                 names.add(TOPIC_CONSTANTS[sub.attr])
             elif sub.attr in TOPIC_TUPLES:

@@ -37,23 +37,22 @@ from typing import Any
 from std_msgs.msg import String
 
 from attitude_core.config import node_graph
-from attitude_core.contract.goals import goal_name
-from attitude_core.contract.topics import stamp_ns
 from attitude_core.fsw.guidance.guidance import Guidance
-from attitude_core.runtime.planner_stepper import PlannerStepper, goal_log
+from attitude_core.runtime.planner_stepper import PlannerStepper
 from attitude_core.runtime.stamp_gate import StampGate
 from attitude_core.runtime.stamp_pairing import StampPairing
 from attitude_ros import contract as c
 from attitude_ros.convert import (
     DiagnosticsOut,
+    event_diagnostics,
     fault_diagnostics,
-    goal_diagnostics,
     log_events,
     log_faults,
     set_vector3,
     stamp_msg,
 )
-from attitude_ros.endpoints import message, publisher, subscription
+from attitude_ros.endpoints import message, publisher
+from attitude_ros.goal_intake import subscribe_goal
 from attitude_ros.intake import (
     attitude_value,
     rate_value,
@@ -88,8 +87,7 @@ class FepfPlannerNode(StackNode):
         self.pub_diag = publisher(
             self, c.DIAGNOSTICS, event_callbacks=diagnostics_events(self, publisher=True)
         )
-        self.out_mrp = message(c.TARGET_MRP)
-        self.out_rate = message(c.TARGET_RATE)
+        self.out_mrp, self.out_rate = message(c.TARGET_MRP), message(c.TARGET_RATE)
         self.out_margin = message(c.KEEP_OUT_MARGIN)
         self.out_diag: Any = None
         self.diag = DiagnosticsOut()  # the one /diagnostics message, refilled each step
@@ -97,7 +95,7 @@ class FepfPlannerNode(StackNode):
             subscribe_wheel_torque(self, self.guard, self.intake, names, self.on_wheel_torque)
         # A lockstep re-send (same state) gets the same answer again: self.publish.
         subscribe_paired(self, self.guard, self.intake, state, self.answer, self.publish)
-        subscription(self, c.GOAL, self.on_goal)  # <run namespace>/planner/goal
+        subscribe_goal(self, self.stepper.command)  # <run namespace>/planner/goal
         self.clock = LoopClock(self, sc.dt_s, self.on_tick, self.stepper.rebase_watchdog)
         self.get_logger().info(
             f"scenario '{sc.name}': FEPF variant {sc.planner.variant}, "
@@ -129,15 +127,6 @@ class FepfPlannerNode(StackNode):
             self.get_logger().error(f"status {tick.status}: no measured state; zero torque")
             self.pub_status.publish(String(data=tick.status.value))
 
-    def on_goal(self, msg: Any) -> None:
-        """A goal, judged at the next state (a malformed one refused at once, logged);
-        its reports go out with that state's step."""
-        q = msg.quaternion
-        goal_id = stamp_ns(msg.header.stamp)
-        self.get_logger().info(f"goal {goal_name(goal_id)} received")
-        refused = self.stepper.command(goal_id, msg.header.frame_id, (q.x, q.y, q.z, q.w))
-        log_events(self.get_logger(), [goal_log(g) for g in refused])
-
     def on_wheel_torque(self, stamp: int, motor_torque_nm: Any) -> None:
         log_events(self.get_logger(), self.stepper.wheel_command(stamp, motor_torque_nm))
 
@@ -145,10 +134,9 @@ class FepfPlannerNode(StackNode):
         at, wheels = self.clock.state_time_ns(stamp), state[2] if len(state) > 2 else None
         step = self.stepper.step(stamp, state[0], state[1], self.active, at, wheels)
         log_events(self.get_logger(), step.logs)
-        for fault in step.faults:
-            self.pub_diag.publish(fault_diagnostics(stamp_msg, fault))
-        self.out_mrp.header.stamp = stamp_msg
-        self.out_rate.header.stamp = stamp_msg
+        for msg in event_diagnostics(stamp_msg, step.faults, step.goals):  # faults, goals
+            self.pub_diag.publish(msg)
+        self.out_mrp.header.stamp = self.out_rate.header.stamp = stamp_msg
         set_vector3(self.out_mrp.vector, step.sigma_t)
         set_vector3(self.out_rate.vector, step.omega_t)
         if step.held:  # deactivated: the last target held, at rest (a safe stop)
@@ -164,8 +152,6 @@ class FepfPlannerNode(StackNode):
         if report.status is not None:
             self.pub_status.publish(String(data=report.status.value))
         log_events(self.get_logger(), report.logs)
-        for goal in step.goals:
-            self.pub_diag.publish(goal_diagnostics(stamp_msg, goal))
 
     def close(self) -> None:
         """Stop the route thread (a route in progress is dropped)."""

@@ -199,6 +199,16 @@ def goal_diagnostics(stamp: Any, goal: GoalReport) -> Any:
     return msg
 
 
+def event_diagnostics(
+    stamp: Any, faults: Iterable[Fault], goals: Iterable[GoalReport]
+) -> list[Any]:
+    """The ``/diagnostics`` messages of a step's events: the faults it ended or opened
+    (:func:`fault_diagnostics`) and its goal reports (:func:`goal_diagnostics`)."""
+    return [fault_diagnostics(stamp, f) for f in faults] + [
+        goal_diagnostics(stamp, g) for g in goals
+    ]
+
+
 class DiagnosticsOut:
     """The planner's ``/diagnostics`` message, built once and refilled each step: one
     ``DiagnosticStatus`` named as the contract says, its level and message from the

@@ -7,8 +7,9 @@ enclave per node (``<root>/<role>``); each node may publish and subscribe exactl
 topics :mod:`attitude_core.config.node_graph` gives it, plus what every rclpy node needs
 (``/rosout``, its parameter services, ``/parameter_events``) and ``/diagnostics``, where
 every node publishes its run identity and listens to its peers'. Topic names are
-absolute, so the policy holds in any run namespace (``profile ns="*"`` is not used: the
-profile's namespace is the run's, given by ``--namespace``).
+absolute (but the goal, ``planner/goal``, resolved in the run's namespace as the
+planner subscribes it), so the policy holds in any run namespace (``profile ns="*"`` is
+not used: the profile's namespace is the run's, given by ``--namespace``).
 
 docs/sros2/attitude_run.policy.xml is this output; a test keeps it current.
 """
@@ -23,7 +24,7 @@ from typing import Any
 from attitude_core.config import node_graph
 from attitude_core.contract import topics as t
 
-__all__ = ["PARAMETER_SERVICES", "permissions", "policy_xml"]
+__all__ = ["PARAMETER_SERVICES", "granted", "permissions", "policy_xml"]
 
 PARAMETER_SERVICES = (
     "~/describe_parameters",
@@ -41,10 +42,17 @@ def permissions(spec: node_graph.NodeSpec[Any]) -> tuple[list[str], list[str]]:
     """(published, subscribed) topics of one node, sorted: with and without wheels
     (:data:`attitude_core.config.node_graph.WHEELED`)."""
     wheeled = node_graph.with_wheels(spec, True)
-    publish = set(spec.publishes) | set(wheeled.publishes)
+    publish = {granted(n) for n in set(spec.publishes) | set(wheeled.publishes)}
     publish |= {t.DIAGNOSTICS, "/rosout", "/parameter_events"}
-    subscribe = set(spec.subscribes) | set(wheeled.subscribes) | {t.DIAGNOSTICS}
+    subscribe = {granted(n) for n in set(spec.subscribes) | set(wheeled.subscribes)}
+    subscribe |= {t.DIAGNOSTICS}
     return sorted(publish), sorted(subscribe)
+
+
+def granted(name: str) -> str:
+    """A contract topic as the policy names it: absolute, but an operator's topic (the
+    goal) relative, in the profile's namespace (the run's), as the node resolves it."""
+    return t.topic(name).node_name
 
 
 def policy_xml(enclave_root: str = "/attitude", namespace: str = "/") -> str:

@@ -326,6 +326,64 @@ def _summary_table(runs: Sequence[ReportRun]) -> str:
     )
 
 
+_GOAL_COLUMNS = (
+    ("name", "goal", ""),
+    ("outcome", "outcome", ""),
+    ("t_commanded_s", "commanded", "s"),
+    ("t_start_s", "in force from", "s"),
+    ("t_reach_s", "arrival", "s"),
+    ("t_end_s", "ended", "s"),
+    ("rotation_deg", "rotation to it", "deg"),
+    ("min_margin_deg", "min margin in force (dense, body)", "deg"),
+    ("reason", "reason", ""),
+)
+
+
+def _goals_section(runs: Sequence[ReportRun]) -> list[str]:
+    """One table per run with goals (``summary.json`` ``goals``): each goal, its
+    outcome, its times, its rotation, its smallest margin and the reason of a refusal;
+    nothing for runs without goals."""
+    e = html.escape
+    parts: list[str] = []
+    for run in runs:
+        goals = run.summary.get("goals") or []
+        if not goals:
+            continue
+        head = "".join(
+            f"<th>{e(label)}" + (f" ({e(unit)})" if unit else "") + "</th>"
+            for _, label, unit in _GOAL_COLUMNS
+        )
+        rows = []
+        for goal in goals:
+            cells = []
+            for key, _, unit in _GOAL_COLUMNS:
+                value = goal.get(key)
+                bad = (key == "outcome" and value not in ("reached", "refused")) or (
+                    key == "min_margin_deg" and value is not None and value <= 0.0
+                )
+                cls = "num" if unit else ""
+                cls += " bad" if bad else ""
+                text = "" if value is None else format_value(value) if unit else str(value)
+                cells.append(f'<td class="{cls.strip()}">{e(text)}</td>')
+            rows.append("<tr>" + "".join(cells) + "</tr>")
+        parts += [
+            f"<h3>{e(run.label)}</h3>",
+            f'<table class="goals"><thead><tr>{head}</tr></thead>'
+            f"<tbody>{''.join(rows)}</tbody></table>",
+        ]
+    if parts:
+        parts = [
+            "<h2>Goals</h2>",
+            '<p class="note">The plan\'s targets and the goals received on '
+            "<code>&lt;run namespace&gt;/planner/goal</code>, in order, from the planner's "
+            "reports in the bag (times from the first recorded step); the margin is the "
+            "body's, densely, while the goal was in force. Figure <code>goals.png</code> "
+            "shows each goal's path and margins.</p>",
+            *parts,
+        ]
+    return parts
+
+
 def render_html(
     runs: Sequence[ReportRun], figure_dir: str, figures: Mapping[str, tuple[str, str]]
 ) -> str:
@@ -363,6 +421,7 @@ def render_html(
             else ""
         )
         + "</p>",
+        *_goals_section(runs),
         "<h2>Figures</h2>",
     ]
     for name, (fig_title, caption) in figures.items():

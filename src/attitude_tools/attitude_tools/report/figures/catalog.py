@@ -6,8 +6,9 @@ regions and the boresight trajectory on the right ascension / declination plane
 ("Trajectory" figures), and the time histories of the MRPs, the angular velocity and
 the torque ("Time History of the States"). :data:`FIGURES` lists them, plus the margin
 of every constraint against time; :func:`figures_for` adds the estimation figure for
-runs flown on an estimate and the wheel figure for runs flown by a reaction wheel array
-(:func:`flies_on_wheels`); a run with neither gets exactly :data:`FIGURES`. No plotting
+runs flown on an estimate, the wheel figure for runs flown by a reaction wheel array
+(:func:`flies_on_wheels`) and the goals figure for runs with goals; a run with none of
+them gets exactly :data:`FIGURES`. No plotting
 here.
 
 Keep-in cones (a body axis that must stay within an angle of an inertial direction)
@@ -28,6 +29,7 @@ __all__ = [
     "FIGURES",
     "ESTIMATION_FIGURES",
     "WHEEL_ARRAY_FIGURES",
+    "GOAL_FIGURES",
     "figures_for",
     "flies_on_wheels",
 ]
@@ -110,6 +112,20 @@ WHEEL_ARRAY_FIGURES = {
 """Figures only for runs flown by a reaction wheel array (:func:`flies_on_wheels`)."""
 
 
+GOAL_FIGURES = {
+    "goals.png": (
+        "Goals",
+        "Runs with goals (a plan's targets, goals received on <run namespace>/planner/goal): "
+        "one row per goal, in order. Left: the first instrument's boresight on the right "
+        "ascension / declination plane while the goal was in force, among its keep-out "
+        "cones, from where the body was (open marker) to the goal (filled). Right: every "
+        "constraint's margin over that window (deg; negative is a violation), the arrival "
+        "dotted. A goal never in force (refused, skipped) says why.",
+    ),
+}
+"""Figures only for runs with goals (``RunResult.goals``)."""
+
+
 def flies_on_wheels(run: ReportRun) -> bool:
     """Whether ``run`` was flown by a wheel array and its record holds the wheels."""
     return run.scenario.wheels is not None and run.run.wheels is not None
@@ -123,4 +139,6 @@ def figures_for(runs: Sequence[ReportRun]) -> dict[str, tuple[str, str]]:
         figures.update(ESTIMATION_FIGURES)
     if any(flies_on_wheels(r) for r in runs):
         figures.update(WHEEL_ARRAY_FIGURES)
+    if any(r.run.goals for r in runs):
+        figures.update(GOAL_FIGURES)
     return figures

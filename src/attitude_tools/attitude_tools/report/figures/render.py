@@ -14,6 +14,7 @@ from ..data import ReportRun
 from .catalog import figures_for
 from .context import FigureContext
 from .estimation import fig_estimation
+from .goals import fig_goals
 from .histories import fig_history_mrp, fig_history_rate, fig_history_torque
 from .margin import fig_margin
 from .mrp_space import fig_keepout_mrp, fig_trajectory_mrp
@@ -34,6 +35,7 @@ _BUILDERS: dict[str, Callable[[FigureContext], Figure]] = {
     "margin.png": fig_margin,
     "estimation.png": fig_estimation,
     "wheels.png": fig_wheels,
+    "goals.png": fig_goals,
 }
 
 
