@@ -203,3 +203,24 @@ def test_goal_report_round_trips_through_its_diagnostic_values():
         GoalReport.from_values({k: v for k, v in report.diagnostic_values() if k != "outcome"})
     entry = report.to_json(None)
     assert entry["outcome"] == "refused" and entry["t_reach_s"] is None and entry["dwell_s"] is None
+
+
+def test_a_goal_the_moving_sky_covers_within_its_dwell_is_refused_when_judged():
+    """On a moving sky the goal is judged until the end of its dwell after the slew: an
+    attitude that points the star tracker where the mover will be in 80 s is clear now,
+    refused with a 100 s dwell, and taken when held until the next goal (the guidance
+    then watches the sky, as for a single slew)."""
+    from scipy.spatial.transform import Rotation
+
+    sc = load_scenario(ROOT / "scenarios" / "moving_object.yaml")
+    mover = sc.bright_object_names.index("mover")
+    ahead = sc.sky.object_directions(80.0)[0][mover]
+    # The body attitude whose +x boresight points at the mover's direction at 80 s.
+    rot, _ = Rotation.align_vectors([ahead], [[1.0, 0.0, 0.0]])  # C_NB: body -> inertial
+    sigma = rot.as_mrp()
+    assert goal_clearance(sc, 0.0, sigma, 0.0) == ""  # clear now (and no dwell)
+    assert goal_clearance(sc, 0.0, sigma, math.inf) == ""  # judged now only
+    why = goal_clearance(sc, 0.0, sigma, 100.0)
+    assert "inside the keep-out of star_tracker/mover" in why and "within its dwell" in why
+    t_hit = float(why.split("at t = ")[1].split(" s")[0])
+    assert 0.0 < t_hit <= 80.0

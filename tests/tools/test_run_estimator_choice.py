@@ -50,14 +50,14 @@ def _roles(inputs) -> list[str]:
 def test_sensors_with_our_simulator_start_the_estimator(tmp_path):
     inputs = check_inputs(_request(tmp_path, SENSING))
     assert _roles(inputs) == [n.role for n in graph.SENSING_NODES]
-    args = _own_args(_request(tmp_path, SENSING), tmp_path, inputs.nodes)
+    args = _own_args(_request(tmp_path, SENSING), tmp_path, inputs.nodes, inputs.scenario)
     assert "lockstep.expected_subscribers:=2" in args[graph.SIMULATOR.role]
 
 
 def test_no_sensors_no_estimator(tmp_path):
     inputs = check_inputs(_request(tmp_path, PLAIN))
     assert _roles(inputs) == [n.role for n in graph.NODES]
-    args = _own_args(_request(tmp_path, PLAIN), tmp_path, inputs.nodes)
+    args = _own_args(_request(tmp_path, PLAIN), tmp_path, inputs.nodes, inputs.scenario)
     assert "lockstep.expected_subscribers:=3" in args[graph.SIMULATOR.role]
 
 
@@ -87,3 +87,21 @@ def test_the_cli_refuses_an_external_estimate_with_our_simulator(tmp_path):
     assert run.returncode == 2
     assert "--external-estimate" in run.stderr and "--plant external" in run.stderr
     assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize(
+    "scenario, until_stopped, stops",
+    [
+        ("case1.yaml", False, "[arrived,stuck,infeasible,safe_mode,complete]"),
+        ("case1_plan.yaml", False, "[complete,safe_mode]"),  # not on a target's arrival
+        ("case1_operator.yaml", True, "['']"),  # the operator ends it
+    ],
+)
+def test_the_recorder_stops_on_the_end_of_the_slew_of_the_plan_or_never(
+    tmp_path, scenario, until_stopped, stops
+):
+    req = _request(tmp_path, ROOT / "scenarios" / scenario)
+    req = RunRequest(**{**req.__dict__, "until_stopped": until_stopped})
+    inputs = check_inputs(req)
+    args = _own_args(req, tmp_path, inputs.nodes, inputs.scenario)
+    assert f"stop_on_planner_status:={stops}" in args[graph.RECORDER.role]

@@ -9,8 +9,9 @@ and when it ends (:attr:`GoalSequence.reports`).
 
 * A goal is judged at the first state after it came (:func:`goal_clearance`): one whose
   attitude puts an instrument inside a keep-out, or an axis outside a keep-in cone, now
-  or within its dwell on a moving sky, is **refused** before any torque, with the
-  reason; so is one no route reaches (enclosed). The goal in force stays; the status
+  or, on a moving sky, until the end of its dwell after the expected slew, is
+  **refused** before any torque, with the reason; so is one no route reaches
+  (enclosed). The goal in force stays; the status
   ``refused`` is reported for that state.
 * Otherwise it preempts the goal in force (``preempted``, or ``reached`` if the body had
   arrived) and a new guidance is planned from the measured state, rate included (the
@@ -36,6 +37,7 @@ from attitude_core.assembly.guidance import (
     PreparedGuidance,
     buffer_deg,
     guidance_from_scenario,
+    scenario_eta_s,
 )
 from attitude_core.config.scenario import Scenario
 from attitude_core.contract.goals import (
@@ -56,15 +58,19 @@ CLEARANCE_STEP_S = 1.0
 """Sampling of a moving sky over a goal's dwell when it is judged, s."""
 
 
-def goal_clearance(scenario: Scenario, t_s: float, sigma_goal: Vec3Like, dwell_s: float) -> str:
-    """Why the attitude ``sigma_goal`` cannot be held from ``t_s`` for ``dwell_s``
-    (an instrument inside a keep-out or an axis outside a keep-in, eq. 5), or "" if it
-    can. On a moving sky the dwell is sampled every :data:`CLEARANCE_STEP_S` up to the
-    sky's horizon."""
+def goal_clearance(
+    scenario: Scenario, t_s: float, sigma_goal: Vec3Like, dwell_s: float, eta_s: float = 0.0
+) -> str:
+    """Why the attitude ``sigma_goal`` cannot be held (an instrument inside a keep-out or
+    an axis outside a keep-in, eq. 5), or "" if it can: now, and on a moving sky until
+    the end of its dwell, ``t_s + eta_s + dwell_s`` (``eta_s``: the expected slew), sampled
+    every :data:`CLEARANCE_STEP_S`. A goal held until the next (unbounded dwell) is judged
+    now only: on a moving sky the guidance holds it clear of what covers it later and
+    reports it ``blocked``, as a single slew's."""
     sky = scenario.sky
-    horizon = sky.horizon_s if not sky.static else t_s
-    end = min(t_s + dwell_s, horizon) if math.isfinite(dwell_s) else horizon
-    times = [t_s] if sky.static or end <= t_s else list(np.arange(t_s, end, CLEARANCE_STEP_S))
+    end = t_s + eta_s + dwell_s if math.isfinite(dwell_s) else t_s
+    end = min(end, sky.horizon_s)
+    times = [t_s] if sky.static or end <= t_s else [*np.arange(t_s, end, CLEARANCE_STEP_S), end]
     names = scenario.constraint_names
     for t in times:
         margins = sky.constraint_margins_deg(float(t), np.asarray(sigma_goal, dtype=float))
@@ -254,7 +260,8 @@ class GoalSequence:
             rec = replace(rec, t_start_s=t_s, rotation_deg=rotation)
             if rec.source == SOURCE_PLAN:  # a plan's target is commanded when its turn comes
                 rec = replace(rec, t_commanded_s=t_s)
-            why = goal_clearance(self.scenario, t_s, rec.sigma_goal, rec.dwell_s)
+            eta = 0.0 if self.scenario.sky.static else scenario_eta_s(self.scenario, sigma_bn)
+            why = goal_clearance(self.scenario, t_s, rec.sigma_goal, rec.dwell_s, eta)
             guidance = None if why else self._guidance(rec, t_s, sigma_bn, omega_b)
             if guidance is not None and guidance.status is PlannerStatus.INFEASIBLE:
                 why = guidance.reason
