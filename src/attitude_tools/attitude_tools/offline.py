@@ -20,7 +20,7 @@ from attitude_core.config.scenario import ScenarioError
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract import diagnostics
 from attitude_core.loop.closed_loop import run_closed_loop
-from attitude_core.record.goal_figures import goal_in_force
+from attitude_core.record.goal_figures import goal_in_force, goals_settled
 from attitude_core.record.summary import summarize
 from attitude_core.record.trajectory import RunResult
 from attitude_core.record.wheel_figures import inertial_momentum
@@ -151,7 +151,8 @@ def main(argv: list[str] | None = None) -> int:
     if summary["planner_infeasible"]:
         print(f"attitude-offline: infeasible: {summary['infeasible_reason']}", file=sys.stderr)
         return 1
-    return 0 if summary["reached"] and summary["min_margin_deg"] > 0.0 else 1
+    done = goals_settled(summary["goals"]) if summary["goals"] else summary["reached"]
+    return 0 if done and summary["min_margin_deg"] > 0.0 else 1
 
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ from attitude_core.record.metrics import dense_min_margin_deg
 from attitude_core.record.trajectory import RunResult
 
 __all__ = [
+    "SETTLED_OUTCOMES",
+    "goals_settled",
     "final_goals",
     "goal_entries",
     "final_goal",
@@ -100,3 +102,13 @@ def plan_reached(run: RunResult) -> tuple[bool, float | None]:
     planned = [g for g in final_goals(run) if g.source == SOURCE_PLAN]
     reached = bool(planned) and all(g.outcome is GoalOutcome.REACHED for g in planned)
     return reached, (planned[-1].t_reach_s if reached else None)
+
+
+SETTLED_OUTCOMES = (GoalOutcome.REACHED, GoalOutcome.REFUSED, GoalOutcome.INFEASIBLE)
+"""Goal outcomes of a successful run: reached, or refused or skipped with the reason."""
+
+
+def goals_settled(entries: list[dict[str, Any]]) -> bool:
+    """Whether every ``summary.json`` ``goals`` entry is reached, refused or infeasible
+    (a run with goals succeeds on these, and no keep-out entered)."""
+    return all(e["outcome"] in SETTLED_OUTCOMES for e in entries)

@@ -330,10 +330,10 @@ def _succeeded(summary: dict[str, Any], until_stopped: bool) -> bool:
     safe = summary["min_margin_deg"] > 0.0 and not summary["failure"]
     if until_stopped or not safe:
         return safe
+    from attitude_core.record.goal_figures import goals_settled  # after the run: lazily
+
     goals = summary.get("goals") or []
-    if goals:
-        return all(g["outcome"] in ("reached", "refused", "infeasible") for g in goals)
-    return bool(summary["reached"])
+    return goals_settled(goals) if goals else bool(summary["reached"])
 
 
 def _failure_line(summary: dict[str, Any]) -> str:
@@ -341,7 +341,9 @@ def _failure_line(summary: dict[str, Any]) -> str:
     if summary["failure"]:
         return str(summary["failure"])
     goals = summary.get("goals") or []
-    missed = [g for g in goals if g["outcome"] not in ("reached", "refused", "infeasible")]
+    from attitude_core.record.goal_figures import SETTLED_OUTCOMES
+
+    missed = [g for g in goals if g["outcome"] not in SETTLED_OUTCOMES]
     if missed:
         return f"goal {missed[0]['name']} {missed[0]['outcome']} ({summary['end_reason']})"
     if not summary["reached"]:
