@@ -89,3 +89,17 @@ def test_a_goal_message_is_judged_at_the_next_state_and_preempts():
     np.testing.assert_allclose(stepper.guidance.goal, goal, atol=1e-12)
     assert taken.t_start_s == pytest.approx(0.1) and taken.t_commanded_s == 0.0
     stepper.close()
+
+
+def test_a_goal_received_before_the_first_state_is_flown_instead_of_the_scenarios():
+    sc = load_scenario(CASE1)
+    stepper = PlannerStepper(sc, executor=ImmediateExecutor())
+    goal = np.array([0.3, 0.4, 0.1])
+    assert stepper.command(9, "inertial", _xyzw(goal)) == []
+    step = stepper.step(0, sc.initial_mrp, np.zeros(3))
+    np.testing.assert_allclose(stepper.guidance.goal, goal, atol=1e-12)
+    assert [g.goal_id for g in step.goals] == [9]
+    own = stepper.sequence.records[0]
+    assert own.source == "scenario" and own.outcome is GoalOutcome.PREEMPTED
+    assert not stepper.sequence.queue  # the scenario's goal will not follow it
+    stepper.close()

@@ -280,6 +280,10 @@ class GoalSequence:
                 continue
             if self._current is not None:
                 self._close_current(t_s)
+            if rec.source == SOURCE_TOPIC:  # the scenario's own goal, not yet flown: dropped
+                for j in [j for j in self.queue if self.records[j].source == SOURCE_SCENARIO]:
+                    self.queue.remove(j)
+                    self._set(j, self.records[j].ended(GoalOutcome.PREEMPTED, t_s))
             assert guidance is not None
             self.guidance = guidance
             self._arrived_at = None
