@@ -144,7 +144,7 @@ def test_an_operator_commands_a_running_stack_then_stops_it(tmp_path, ros_domain
     op = Operator(ros_domain, ns)
     constrained = np.array([0.0, -0.2, -0.7])  # Case 1's goal: a detour around object_2
     blind = np.zeros(3)  # the star tracker 17 deg from object_3, inside its 20 deg
-    third = np.array([0.3, 0.4, 0.1])
+    third = np.array([-0.2271, -0.102, -0.6239])  # 40 deg on from the first, in the clear
     try:
         # The planner and the recorder subscribe the goal once they are configured.
         op.wait(lambda: op.pub.get_subscription_count() >= 2, "goal subscribers", 120.0, alive)

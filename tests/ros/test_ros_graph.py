@@ -19,7 +19,15 @@ from attitude_core.assembly.guidance import guidance_from_scenario
 from attitude_core.config.scenario_loader import load_scenario
 from attitude_core.contract.diagnostics import HARDWARE_ID as DIAG_HARDWARE_ID
 from attitude_core.contract.status import PlannerStatus
-from attitude_core.contract.topics import ATTITUDE, CLOCK, PLANNER_STATUS, TOPICS, TORQUE, stamp_ns
+from attitude_core.contract.topics import (
+    ATTITUDE,
+    CLOCK,
+    COMMAND_TOPICS,
+    PLANNER_STATUS,
+    TOPICS,
+    TORQUE,
+    stamp_ns,
+)
 from attitude_core.fsw.control.pd import PdGains, pd_torque
 from attitude_core.loop.closed_loop import run_closed_loop
 from attitude_core.models.mrp import to_principal as principal
@@ -149,7 +157,7 @@ def test_bag_reads_back_with_an_independent_reader(paper_case):
     counts = {
         t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]
     }
-    assert set(counts) == {t.name for t in TOPICS}
+    assert set(counts) == {t.name for t in TOPICS + COMMAND_TOPICS}  # the goal's channel too
     mine = [m.msg.quaternion for m in read_bag(str(bag), ["/spacecraft/attitude"])]
     with AnyReader([bag]) as reader:
         seen = {c.topic: 0 for c in reader.connections}
