@@ -295,3 +295,36 @@ def test_events_go_to_the_log_when_nobody_reads_them():
     m.out = Closed()
     m.emit("down")
     assert graph.logs == [("info", "event down {} (no reader)")]
+
+
+class Lost:
+    """A service call whose answer never comes (the middleware failed to send it)."""
+
+    def done(self) -> bool:
+        return False
+
+    def result(self):
+        raise AssertionError("no answer")
+
+
+def test_a_configure_answer_lost_on_the_way_is_taken_from_the_transition_event():
+    """The node configured (its transition event says so) but its answer was lost: the
+    bring-up goes on; a node that neither answers nor configures is named."""
+    m, graph, journal, out = make()
+    planner = m.nodes[PLANNER]
+
+    def configure_silently(label):
+        planner._go(label)  # the node's transition happens, its event is heard
+        return Lost()
+
+    planner.transition_async = configure_silently
+    m.commands.put("stop")
+    assert m.session([]) == 0
+    assert requests(journal, "activate") == NAMES
+    assert ("warning", f"{PLANNER}: configure answer lost; it is inactive") in graph.logs
+    m, graph, journal, out = make()
+    m.nodes[PLANNER].transition_async = lambda label: Lost()  # nothing happens
+    m.commands.put("stop")
+    assert m.session([]) == 1
+    (failure,) = [e["reason"] for e in events(out) if e["event"] == "failure"]
+    assert failure == f"{PLANNER}: configure no answer (see its log)"

@@ -135,6 +135,7 @@ class LifecycleManager:
         self.out = out
         self.names = [n for n in params.node_names if n]
         self.watch = TransitionWatch()
+        self.reached: dict[str, str] = {}  # node -> the goal of its last transition event
         self.failures: list[str] = []
         self.fingerprints: dict[str, tuple[str, str]] = {}  # node -> (role, fingerprint)
         self.nodes = {n: client(n, self.on_event) for n in self.names}
@@ -152,6 +153,7 @@ class LifecycleManager:
 
     def on_event(self, name: str, start: str, goal: str) -> None:
         """A transition event of ``name``: one it was not asked for is a failure."""
+        self.reached[name] = goal
         failure = self.watch.judge(name, start, goal)
         if failure is not None and failure not in self.failures:
             self.failures.append(failure)
@@ -233,7 +235,15 @@ class LifecycleManager:
         does, and stays in order)."""
         deadline = time.monotonic() + self.p.transition_timeout_s
         pending: dict[str, Call] = {}
-        while len(pending) < len(self.names) or not all(f.done() for f in pending.values()):
+        goal = TRANSITION_GOALS["configure"]
+
+        def answered(name: str) -> bool:
+            # The call's answer, or the node's own transition event to the goal: a
+            # response the middleware failed to send ("failed to send response
+            # (timeout)") must not fail a node that did configure.
+            return pending[name].done() or self.reached.get(name) == goal
+
+        while len(pending) < len(self.names) or not all(answered(n) for n in pending):
             for name in self.names:
                 if name not in pending and self.nodes[name].ready():
                     self.watch.request(name, "configure")
@@ -247,11 +257,13 @@ class LifecycleManager:
                         f"no lifecycle services of {late[0]} within "
                         f"{self.p.transition_timeout_s:g} s"
                     )
-                silent = next(n for n in self.names if not pending[n].done())
+                silent = next(n for n in self.names if not answered(n))
                 raise Failure(f"{silent}: configure no answer (see its log)")
             self.graph.spin(POLL_S)
         for name in self.names:  # in table order: the first refusal is the one named
-            if not pending[name].result().success:
+            if not pending[name].done():  # configured, its answer lost on the way
+                self.graph.log("warning", f"{name}: configure answer lost; it is {goal}")
+            elif not pending[name].result().success:
                 raise Failure(f"{name}: configure failed (see its log)")
             self.watch.settle(name, TRANSITION_GOALS["configure"])
             self.emit("transition", node=name, transition="configure")
