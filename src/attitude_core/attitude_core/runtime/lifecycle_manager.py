@@ -63,6 +63,10 @@ UNKNOWN_NODE = "_NODE_NAME_UNKNOWN_"
 
 OnEvent = Callable[[str, str, str], None]
 
+LOST_ANSWER_S = 5.0
+"""How long after a node's transition event to its goal the manager waits for the
+call's answer before taking the event for it (at most half the transition timeout)."""
+
 
 class Failure(Exception):
     """The run cannot go on: the reason names the node."""
@@ -136,6 +140,7 @@ class LifecycleManager:
         self.names = [n for n in params.node_names if n]
         self.watch = TransitionWatch()
         self.reached: dict[str, str] = {}  # node -> the goal of its last transition event
+        self.reached_at: dict[str, float] = {}  # ... and when it was heard (monotonic)
         self.failures: list[str] = []
         self.fingerprints: dict[str, tuple[str, str]] = {}  # node -> (role, fingerprint)
         self.nodes = {n: client(n, self.on_event) for n in self.names}
@@ -153,7 +158,7 @@ class LifecycleManager:
 
     def on_event(self, name: str, start: str, goal: str) -> None:
         """A transition event of ``name``: one it was not asked for is a failure."""
-        self.reached[name] = goal
+        self.reached[name], self.reached_at[name] = goal, time.monotonic()
         failure = self.watch.judge(name, start, goal)
         if failure is not None and failure not in self.failures:
             self.failures.append(failure)
@@ -235,13 +240,19 @@ class LifecycleManager:
         does, and stays in order)."""
         deadline = time.monotonic() + self.p.transition_timeout_s
         pending: dict[str, Call] = {}
-        goal = TRANSITION_GOALS["configure"]
+        goal, now = TRANSITION_GOALS["configure"], time.monotonic
+
+        grace = min(LOST_ANSWER_S, 0.5 * self.p.transition_timeout_s)
 
         def answered(name: str) -> bool:
-            # The call's answer, or the node's own transition event to the goal: a
-            # response the middleware failed to send ("failed to send response
-            # (timeout)") must not fail a node that did configure.
-            return pending[name].done() or self.reached.get(name) == goal
+            # The call's answer, or the node's own transition event to the goal with no
+            # answer for a while after it: a response the middleware failed to send
+            # ("failed to send response (timeout)") must not fail a node that did
+            # configure (the event usually comes just before the answer).
+            if pending[name].done():
+                return True
+            at = self.reached_at.get(name)
+            return self.reached.get(name) == goal and at is not None and now() - at >= grace
 
         while len(pending) < len(self.names) or not all(answered(n) for n in pending):
             for name in self.names:
