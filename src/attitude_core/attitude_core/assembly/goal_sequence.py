@@ -230,18 +230,8 @@ class GoalSequence:
         outcome (``reached`` if the body is on it for its dwell, or with no dwell
         bound; else ``blocked`` or ``not_reached``)."""
         self.reports = []
-        cur = self.current
-        if cur is not None:
-            since = self._arrived_at
-            dwell = cur.dwell_s
-            if since is not None and (math.isinf(dwell) or t_s - since >= dwell - 1e-9):
-                outcome = GoalOutcome.REACHED
-            elif self.guidance is not None and self.guidance.status is PlannerStatus.BLOCKED:
-                outcome = GoalOutcome.BLOCKED
-            else:
-                outcome = GoalOutcome.NOT_REACHED
-            assert self._current is not None
-            self._set(self._current, cur.ended(outcome, t_s))
+        if self._current is not None:
+            self._end_current(t_s, GoalOutcome.NOT_REACHED)
         while self.incoming or self.queue:
             k = (self.incoming or self.queue).popleft()
             left = self.records[k].ended(GoalOutcome.NOT_REACHED, t_s, "the run ended first")
@@ -279,7 +269,7 @@ class GoalSequence:
                     self.guidance = hold
                 continue
             if self._current is not None:
-                self._close_current(t_s)
+                self._end_current(t_s, GoalOutcome.PREEMPTED)
             if rec.source == SOURCE_TOPIC:  # the scenario's own goal, not yet flown: dropped
                 for j in [j for j in self.queue if self.records[j].source == SOURCE_SCENARIO]:
                     self.queue.remove(j)
@@ -291,9 +281,10 @@ class GoalSequence:
             self._set(k, rec)
         return refused
 
-    def _close_current(self, t_s: float) -> None:
-        """A new goal takes over: the one in force is ``reached`` if the body is on it
-        and its dwell is over (or unbounded), else ``blocked`` or ``preempted``."""
+    def _end_current(self, t_s: float, otherwise: GoalOutcome) -> None:
+        """The goal in force ends at ``t_s`` (a new goal takes over, or the run ends):
+        ``reached`` if the body is on it and its dwell is over (or unbounded), else
+        ``blocked`` if the sky covers it, else ``otherwise``."""
         cur, k = self.current, self._current
         assert cur is not None and k is not None
         dwell, since = self._dwell(cur), self._arrived_at
@@ -302,7 +293,7 @@ class GoalSequence:
         elif self.guidance is not None and self.guidance.status is PlannerStatus.BLOCKED:
             outcome = GoalOutcome.BLOCKED
         else:
-            outcome = GoalOutcome.PREEMPTED
+            outcome = otherwise
         self._set(k, cur.ended(outcome, t_s))
 
     def _dwell(self, rec: GoalReport) -> float:
