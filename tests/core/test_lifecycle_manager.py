@@ -323,8 +323,45 @@ def test_a_configure_answer_lost_on_the_way_is_taken_from_the_transition_event()
     assert requests(journal, "activate") == NAMES
     assert ("warning", f"{PLANNER}: configure answer lost; it is inactive") in graph.logs
     m, graph, journal, out = make()
+    planner = m.nodes[PLANNER]
+
+    def configure_unheard(label):
+        planner.current = TRANSITION_GOALS[label]  # configured; answer and event lost
+        return Lost()
+
+    planner.transition_async = configure_unheard
+    m.commands.put("stop")
+    assert m.session([]) == 0  # its get_state says it configured
+    up = journal[: journal.index(("activate", NAMES[0]))]
+    assert requests(up, "get_state") == [PLANNER]
+    assert requests(journal, "activate") == NAMES
+    assert ("warning", f"{PLANNER}: configure answer lost; it is inactive") in graph.logs
+    m, graph, journal, out = make()
     m.nodes[PLANNER].transition_async = lambda label: Lost()  # nothing happens
     m.commands.put("stop")
     assert m.session([]) == 1
     (failure,) = [e["reason"] for e in events(out) if e["event"] == "failure"]
     assert failure == f"{PLANNER}: configure no answer (see its log)"
+    assert requests(journal, "get_state").count(PLANNER) >= 1  # asked, still unconfigured
+
+
+def test_an_activate_answer_lost_is_taken_from_the_nodes_state():
+    """activate answered by nothing, but the node is active: the run goes on, warned;
+    a node that neither answers nor activates is named."""
+    m, graph, journal, out = make()
+    planner = m.nodes[PLANNER]
+
+    def activate_unheard(label, timeout_s, gone=None):
+        planner.current = TRANSITION_GOALS[label]
+        return None
+
+    planner.transition = activate_unheard
+    m.commands.put("stop")
+    assert m.session([]) == 0
+    assert ("warning", f"{PLANNER}: activate answer lost; it is active") in graph.logs
+    m, graph, journal, out = make()
+    m.nodes[PLANNER].transition = lambda label, timeout_s, gone=None: None
+    m.commands.put("stop")
+    assert m.session([]) == 1
+    (failure,) = [e["reason"] for e in events(out) if e["event"] == "failure"]
+    assert failure == f"{PLANNER}: activate no answer (see its log)"

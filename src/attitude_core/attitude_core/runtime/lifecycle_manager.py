@@ -65,7 +65,11 @@ OnEvent = Callable[[str, str, str], None]
 
 LOST_ANSWER_S = 5.0
 """How long after a node's transition event to its goal the manager waits for the
-call's answer before taking the event for it (at most half the transition timeout)."""
+call's answer before taking the event for it (at most half the transition timeout);
+also how long a call waits with neither its answer nor the event before the manager asks
+the node's state (``get_state``), and how often it asks again."""
+STATE_PROBE_S = 2.0
+"""How long one ``get_state`` probe of a node that has not answered waits, s."""
 
 
 class Failure(Exception):
@@ -213,6 +217,11 @@ class LifecycleManager:
     def transition(self, name: str, label: str) -> None:
         self.watch.request(name, label)
         ok = self.nodes[name].transition(label, self.p.transition_timeout_s)
+        if ok is None and self.nodes[name].state(STATE_PROBE_S) == TRANSITION_GOALS[label]:
+            self.graph.log(
+                "warning", f"{name}: {label} answer lost; it is {TRANSITION_GOALS[label]}"
+            )
+            ok = True
         if not ok:
             why = "no answer" if ok is None else "failed"
             raise Failure(f"{name}: {label} {why} (see its log)")
@@ -243,22 +252,37 @@ class LifecycleManager:
         goal, now = TRANSITION_GOALS["configure"], time.monotonic
 
         grace = min(LOST_ANSWER_S, 0.5 * self.p.transition_timeout_s)
+        asked: dict[str, float] = {}  # node -> when it was last asked (configure or state)
+        confirmed: set[str] = set()  # nodes whose get_state says they configured
 
         def answered(name: str) -> bool:
             # The call's answer, or the node's own transition event to the goal with no
             # answer for a while after it: a response the middleware failed to send
             # ("failed to send response (timeout)") must not fail a node that did
             # configure (the event usually comes just before the answer).
-            if pending[name].done():
+            if pending[name].done() or name in confirmed:
                 return True
             at = self.reached_at.get(name)
             return self.reached.get(name) == goal and at is not None and now() - at >= grace
+
+        def probe(name: str) -> None:
+            # Neither the answer nor the event for a while: both can be lost while the
+            # node's writers still match the manager's readers (discovery is matched
+            # one side at a time on a loaded machine); get_state, asked again on its
+            # own, says whether the node configured.
+            if now() - asked[name] >= grace:
+                if self.nodes[name].state(STATE_PROBE_S) == goal:
+                    confirmed.add(name)
+                asked[name] = now()
 
         while len(pending) < len(self.names) or not all(answered(n) for n in pending):
             for name in self.names:
                 if name not in pending and self.nodes[name].ready():
                     self.watch.request(name, "configure")
                     pending[name] = self.nodes[name].transition_async("configure")
+                    asked[name] = now()
+                elif name in pending and not answered(name):
+                    probe(name)
             if self.failures:
                 raise Failure(self.failures[0])
             if time.monotonic() > deadline:
