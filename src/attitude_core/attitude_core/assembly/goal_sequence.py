@@ -330,8 +330,12 @@ class GoalSequence:
         """The guidance of ``rec`` from the measured state (the profile from the body's
         rate): with what was prepared for the scenario's first goal, when it is that."""
         scenario = self.scenario.retargeted(np.asarray(rec.sigma_goal))
-        first = (
+        hold_until = None  # held until the next goal: the run's end
+        if not scenario.sky.static and math.isfinite(rec.dwell_s):
+            hold_until = t_s + scenario_eta_s(scenario, sigma_bn) + rec.dwell_s
+        first = (  # prepared with the goal held to the run's end (buffer_deg)
             self.prepared is not None
+            and hold_until is None
             and self.guidance is None
             and np.array_equal(rec.sigma_goal, self.scenario.desired_mrp)
         )
@@ -340,8 +344,11 @@ class GoalSequence:
             sigma_0=sigma_bn,
             executor=self.executor,
             prepared=self.prepared if first else None,
-            routes=None if first else self._routes.get(buffer_deg(scenario, sigma_bn)),
+            routes=None
+            if first
+            else self._routes.get(buffer_deg(scenario, sigma_bn, t_s, hold_until)),
             t0_s=t_s,
+            hold_until_s=hold_until,
         )
         if self.guidance is not None and np.any(np.asarray(omega_b, dtype=float) != 0.0):
             guidance.omega_prev = np.array(omega_b, dtype=float)  # a goal that takes over

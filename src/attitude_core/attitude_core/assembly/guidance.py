@@ -21,6 +21,7 @@ from attitude_core.config.scenario import Scenario
 from attitude_core.contract.status import PlannerStatus
 from attitude_core.fsw.guidance.fepf import FepfPlanner, load_planner_fis
 from attitude_core.fsw.guidance.fuzzy import MamdaniFis, lookup_table
+from attitude_core.fsw.guidance.goal_watch import goal_margin_bounds_deg
 from attitude_core.fsw.guidance.guidance import Guidance
 from attitude_core.fsw.guidance.guidance_base import Executor
 from attitude_core.fsw.guidance.moving_sky import SkyGuide, nominal_eta_s
@@ -52,21 +53,36 @@ class PreparedGuidance:
     initial_route: Route
 
 
-def buffer_deg(scenario: Scenario, sigma_0: Vec3Like) -> float:
+def buffer_deg(
+    scenario: Scenario, sigma_0: Vec3Like, t0_s: float = 0.0, hold_until_s: float | None = None
+) -> float:
     """The planner's safety buffer, deg: ``planner.safety_margin_deg``, reduced to half
-    of the start's (``sigma_0``) or the goal's margin when either lies closer to a cone
-    (on a moving sky, the start's at ``t = 0`` only: the goal's clearance is watched over
-    time, :mod:`attitude_core.fsw.guidance.goal_watch`). With declared sensors the knowledge
-    3-sigma (:attr:`Scenario.knowledge`, through the longest declared tracker outage) is
-    added to ``safety_margin_deg``: the true boresight may be that far from the
-    estimated one."""
-    exact = scenario.exact_geometry()  # margins only: no fine rim sampling needed
-    ends = [np.asarray(sigma_0, dtype=float)]
-    if scenario.sky.static:
-        ends.append(scenario.desired_mrp)
-    end_margin = min(float(exact.min_margin_deg(end)) for end in ends)
+    of the start's (``sigma_0``) or the goal's margin when either lies closer to a cone.
+    With declared sensors the knowledge 3-sigma (:attr:`Scenario.knowledge`, through the
+    longest declared tracker outage) is added to ``safety_margin_deg``: the true
+    boresight may be that far from the estimated one.
+
+    One rule for a static and a moving sky. On a moving sky the start's margin is taken
+    at ``t0_s`` (the state the guidance starts from) and the goal's is its least over
+    the time it is held, ``[t0_s, hold_until_s]`` (default: the run's end,
+    ``sim_time_s``), a lower bound between samples
+    (:func:`~attitude_core.fsw.guidance.goal_watch.goal_margin_bounds_deg`): a goal the
+    sky never covers in that span is never blocked. When the sky does cover it (its
+    least margin not positive), the cap is half its greatest margin over the span: the
+    goal is blocked while its margin is below the buffer, around the coverage
+    (:mod:`attitude_core.fsw.guidance.goal_watch`)."""
     wanted = scenario.planner.safety_margin_deg + scenario.knowledge.buffer_3sigma_deg
-    return min(wanted, 0.5 * max(end_margin, 0.0))
+    sky = scenario.sky
+    if sky.static:
+        exact = scenario.exact_geometry()  # margins only: no fine rim sampling needed
+        ends = [np.asarray(sigma_0, dtype=float), scenario.desired_mrp]
+        end_margin = min(float(exact.min_margin_deg(end)) for end in ends)
+        return min(wanted, 0.5 * max(end_margin, 0.0))
+    start = float(np.min(sky.constraint_margins_deg(t0_s, np.asarray(sigma_0, dtype=float))))
+    until = scenario.sim_time_s if hold_until_s is None else hold_until_s
+    least, greatest = goal_margin_bounds_deg(sky, scenario.desired_mrp, t0_s, until)
+    goal = least if least > 0.0 else greatest if greatest > 0.0 else math.inf
+    return min(wanted, 0.5 * max(min(start, goal), 0.0))
 
 
 def scenario_fis(scenario: Scenario) -> tuple[MamdaniFis, MamdaniFis]:
@@ -79,16 +95,17 @@ def planner_from_scenario(
     sigma_0: Vec3Like | None = None,
     watchdog: bool = True,
     fis: tuple[MamdaniFis, MamdaniFis] | None = None,
+    t0_s: float = 0.0,
+    hold_until_s: float | None = None,
 ) -> FepfPlanner:
-    """The planner of a scenario, starting at ``sigma_0`` (default: the scenario's),
-    with ``fis`` if already loaded (:func:`scenario_fis`).
+    """The planner of a scenario, starting at ``sigma_0`` (default: the scenario's) at
+    ``t0_s``, with ``fis`` if already loaded (:func:`scenario_fis`).
 
-    The safety buffer is the configured ``planner.safety_margin_deg``, reduced to
-    half of the start or goal margin when either lies closer to a cone than that.
+    The safety buffer is :func:`buffer_deg` (the goal held until ``hold_until_s``).
     """
     cfg = scenario.planner
     start = scenario.initial_mrp if sigma_0 is None else np.asarray(sigma_0, dtype=float)
-    inflation = buffer_deg(scenario, start)
+    inflation = buffer_deg(scenario, start, t0_s, hold_until_s)
     geometry = scenario.cone_geometry(inflation_deg=inflation, samples=cfg.obstacle_samples)
     return FepfPlanner(
         geometry,
@@ -118,6 +135,7 @@ def guidance_from_scenario(
     initial_route: Route | None = None,
     prepared: PreparedGuidance | None = None,
     t0_s: float = 0.0,
+    hold_until_s: float | None = None,
 ) -> Guidance:
     """The guidance of a scenario from ``sigma_0`` (default: the scenario's start);
     ``routes`` may be a prepared :func:`route_planner` of the same scenario and
@@ -126,9 +144,10 @@ def guidance_from_scenario(
     the scenario's start (on estimates: within the first fix's 3-sigma of it; the
     planner node then answers its first state without planning a route). ``t0_s``: the
     state time of ``sigma_0`` (a goal commanded during the run: the moving sky's route
-    is planned from then)."""
+    is planned from then); ``hold_until_s``: until when the goal is held (a plan's
+    target: the end of its dwell; default the run's end), for :func:`buffer_deg`."""
     fis = None if prepared is None else prepared.fis
-    planner = planner_from_scenario(scenario, sigma_0, watchdog=False, fis=fis)
+    planner = planner_from_scenario(scenario, sigma_0, False, fis, t0_s, hold_until_s)
     if prepared is not None:
         routes = prepared.routes
         fresh = np.allclose(planner.sigma_t, scenario.initial_mrp, rtol=0.0, atol=1e-9)

@@ -49,6 +49,10 @@ class Summary:
     blocked_reason: str | None
     goal_safe_until_s: float | None  # after the arrival (or the end): the goal next lacks
     # its clearance then; None: not within the run
+    goal_min_margin_deg: float  # the goal attitude's least margin over the run, on the sky
+    # of each recorded step (a goal the sky never covered: positive)
+    t_goal_covered_s: float | None  # the first step with the goal attitude inside a
+    # keep-out (or outside a keep-in); None: never in the run
     min_margin_deg: float  # dense minimum over every constraint, on the body
     t_min_margin_s: float
     min_margin_deg_per_pair: dict[str, float]  # per constraint name, at the samples
@@ -149,6 +153,13 @@ def summarize(run: RunResult) -> Summary:
         t_blocked = float(run.t[blocked_at[0]])
         first_block = next((b for b in blockages if b.end_s is None or b.end_s > t_blocked), None)
     safe_until = safe_until_s(blockages, float(run.t[-1]) if t_reach is None else t_reach)
+    held = np.asarray(goal, dtype=float)[None, :]  # a static sky: once, for every step
+    if not sc.sky.static:
+        held = np.broadcast_to(held, (len(run.t), 3))
+    goal_margin = np.broadcast_to(
+        constraint_margins_deg(sc, run.t, held).min(axis=1), (len(run.t),)
+    )
+    covered = np.flatnonzero(goal_margin <= 0.0)
     # Every constraint (keep-out pairs, then keep-in cones), at the samples.
     per_constraint = constraint_margins_deg(sc, run.t, run.sigma_bn).min(axis=0)
     # Planner cost while it is working (arrived/stuck steps return at once).
@@ -171,6 +182,8 @@ def summarize(run: RunResult) -> Summary:
         ),
         blocked_reason=None if first_block is None else first_block.reason(),
         goal_safe_until_s=None if not np.isfinite(safe_until) else float(safe_until),
+        goal_min_margin_deg=float(goal_margin.min()),
+        t_goal_covered_s=round(float(run.t[covered[0]]), 9) if len(covered) else None,
         min_margin_deg=min_margin,
         t_min_margin_s=round(t_min, 9),
         min_margin_deg_per_pair={

@@ -168,6 +168,12 @@ def _finish(
     for variant, v in summary["variants"].items():
         counts = ", ".join(f"{k} {o['count']}" for k, o in v["outcomes"].items() if o["count"])
         log(f"  {variant}: {counts}")
+        check = v.get("blocked_goal")
+        if check and (check["covered"] or check["never_covered"]):
+            log(
+                f"    blocked: the goal covered during the run in {check['covered']}, "
+                f"never covered in {check['never_covered']}"
+            )
     return summary
 
 

@@ -40,7 +40,13 @@ gives it:
 8. the link (``link``): the run's ``link.seed``, then per key given the latency, the
    jitter and the loss rate, then the outage count and each outage's duration and start;
 9. the wheels (``wheels``): per base wheel its initial speed, then with a failure share
-   a uniform draw deciding the failure, the failed wheel and its time.
+   a uniform draw deciding the failure, the failed wheel and its time;
+10. the plan (``plan``): per target an attitude and a dwell;
+11. the goal near a keep-out (``goal_near_keep_out``): a uniform number choosing the
+    keep-out pair, then the offset; the goal is turned onto it once the draw is loaded
+    (:func:`attitude_tools.campaign.near_keep_out.goal_at_margin`), exempt from the
+    end-margin check (the start is not), and redrawn if another constraint is nearer
+    than the offset at ``t = 0``.
 
 A value range whose ends are equal gives its end and draws nothing (a count range is
 always drawn). An optional dispersion that the SPEC does not give draws nothing, and new
@@ -65,6 +71,7 @@ from attitude_core.config.scenario_schema import GROUPS
 from attitude_core.models.cone_math import margins_deg_from_dcm
 from attitude_core.yamlio import load_strict
 
+from .near_keep_out import goal_at_margin, keep_out_pairs
 from .spec import MAX_REDRAWS, CampaignSpec, utc_text
 
 __all__ = ["Draw", "base_parameters", "draw_run", "scenario_text", "as_read_back", "GOAL_SAMPLE_S"]
@@ -273,21 +280,24 @@ def _plain(flat: dict[str, Any]) -> bool:
     return all(f"instruments.{n}.half_angle_deg" in flat for n in flat["instruments.names"])
 
 
-def _end_margin_deg(flat: dict[str, Any], scenario: Scenario | None = None) -> float:
+def _end_margin_deg(
+    flat: dict[str, Any], scenario: Scenario | None = None, goal_placed: bool = False
+) -> float:
     """The smallest margin of the drawn start and goal attitudes over every constraint:
     keep-out (eq. 5, from the limb) and keep-in (``max_angle_deg`` minus the axis' angle
     to its direction).
 
     A plain draw (:func:`_plain`) is measured on the drawn values, before the loader;
     any other on ``scenario`` (the loaded draw): the start at ``t = 0``, the goal at every
-    :data:`GOAL_SAMPLE_S` over ``[0, sim_time_s]`` (the module docstring says why)."""
-    if not _plain(flat):
+    :data:`GOAL_SAMPLE_S` over ``[0, sim_time_s]`` (the module docstring says why).
+    ``goal_placed`` (``goal_near_keep_out``): the start's only, on ``scenario``."""
+    if not _plain(flat) or goal_placed:
         if scenario is None:
             raise ValueError(
                 "a draw with ephemeris or moving objects, or per-object exclusions, is "
                 "measured on its loaded scenario"
             )
-        return _sky_end_margin_deg(scenario)
+        return _sky_end_margin_deg(scenario, goal_placed)
     inst = flat["instruments.names"]
     objs = flat["bright_objects.names"]
     s = np.array([flat[f"instruments.{n}.boresight_body"] for n in inst], dtype=float)
@@ -307,11 +317,33 @@ def _end_margin_deg(flat: dict[str, Any], scenario: Scenario | None = None) -> f
     return smallest
 
 
-def _sky_end_margin_deg(sc: Scenario) -> float:
-    """The start's margin at ``t = 0`` and the goal's smallest over the run, on the sky."""
+def _place_goal(
+    spec: CampaignSpec, i: int, flat: dict[str, Any], sc: Scenario, u: float, offset_deg: float
+) -> Scenario | None:
+    """``goal_near_keep_out``: the goal of ``flat`` turned to ``offset_deg`` outside the
+    keep-out pair ``u`` picks, loaded again; None when another constraint is nearer
+    than the offset at ``t = 0`` (or the boresight is along the object)."""
+    pairs = keep_out_pairs(sc.sky)
+    if not pairs:
+        raise ValueError(f"{spec.name}: goal_near_keep_out needs a keep-out pair")
+    try:
+        goal = goal_at_margin(sc.sky, sc.desired_mrp, int(u * pairs), offset_deg)
+    except ValueError:
+        return None
+    if float(sc.sky.constraint_margins_deg(0.0, goal).min()) < offset_deg - 1e-6:
+        return None
+    flat["desired_mrp"] = [float(x) for x in goal]
+    return parse_scenario(as_read_back(flat), f"<{spec.name} run {i}>")
+
+
+def _sky_end_margin_deg(sc: Scenario, goal_placed: bool = False) -> float:
+    """The start's margin at ``t = 0`` and the goal's smallest over the run, on the sky
+    (a goal placed near a keep-out: the start's only)."""
     t = np.append(np.arange(0.0, sc.sim_time_s, GOAL_SAMPLE_S), sc.sim_time_s)
     start = sc.sky.constraint_margins_deg(0.0, np.asarray(sc.initial_mrp, dtype=float))
     smallest = float(start.min())
+    if goal_placed:
+        return smallest
     for sigma in [p.desired_mrp for p in sc.plan] or [sc.desired_mrp]:
         goal = np.broadcast_to(np.asarray(sigma, dtype=float), (len(t), 3))
         smallest = min(smallest, float(sc.sky.constraint_margins_deg(t, goal).min()))
@@ -339,16 +371,23 @@ def draw_run(spec: CampaignSpec, base: dict[str, Any], i: int, variant: str | No
         flat = _candidate(spec, base, i, rng)
         if variant is not None:
             flat["planner.variant"] = variant
-        plain = _plain(flat)
+        near = spec.goal_near_keep_out_deg
+        placed = None if near is None else (float(rng.random()), _uniform(rng, near.lo, near.hi))
+        plain = _plain(flat) and placed is None
         if plain and _end_margin_deg(flat) < spec.min_end_margin_deg:
             close += 1  # cheap check first: the loader would refuse one inside a cone
             continue
+        sc: Scenario | None
         try:
             sc = parse_scenario(as_read_back(flat), f"<{spec.name} run {i}>")
+            if placed is not None:
+                sc = _place_goal(spec, i, flat, sc, *placed)
         except ScenarioError:
             refused += 1
             continue
-        if not plain and _end_margin_deg(flat, sc) < spec.min_end_margin_deg:
+        if sc is None or (
+            not plain and _end_margin_deg(flat, sc, placed is not None) < spec.min_end_margin_deg
+        ):
             close += 1  # a moving sky: measured on the loaded scenario's
             continue
         return Draw(i, flat, sc, refused, close)

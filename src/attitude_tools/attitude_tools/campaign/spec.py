@@ -62,6 +62,15 @@ one wheel (uniform among them) failing at a time uniform in ``fails_at_s``.
 one uniform factor), its rate (Hz), the gyro's white noise (rad/s per sample) and its
 bias (each axis: a magnitude uniform in the range, a random sign); the rest is the
 base's.
+
+``goal_near_keep_out: {offset_deg: [lo, hi]}`` places each run's goal just outside a
+keep-out: after the rest is drawn, one keep-out pair (an instrument and an object it
+avoids, uniform among the sky's pairs) and an offset (uniform, deg) are drawn, and the
+goal is turned by the smallest rotation that puts that pair's margin at the offset at
+``t = 0``. The goal is then exempt from ``min_end_margin_deg`` (the start is not); a
+draw whose goal lies nearer another constraint than the offset at ``t = 0`` is redrawn.
+The moving sky may cover such a goal later in the run: that is what it tests. Not with
+``plan``.
 """
 
 from __future__ import annotations
@@ -164,6 +173,8 @@ class CampaignSpec:
     # uniform over SO(3) like the goal, with a dwell uniform in plan_dwell_s.
     plan_targets: int = 0
     plan_dwell_s: Range | None = None
+    # The goal placed this far outside a drawn keep-out at t = 0 (None: not placed).
+    goal_near_keep_out_deg: Range | None = None
 
     @property
     def tasks(self) -> list[tuple[int, str]]:
@@ -201,6 +212,7 @@ _DISPERSIONS = {
     "link",
     "wheels",
     "plan",
+    "goal_near_keep_out",
 }
 _PLAN = {"targets", "dwell_s"}
 _SKY = {"epoch_utc", "raan_deg", "true_anomaly_deg"}
@@ -401,6 +413,16 @@ def load_spec(path: str | Path) -> CampaignSpec:
     link = _read_link(r, d.get("link"), f"{key}.link", base_scenario)
     link.update(_read_wheels(r, d.get("wheels"), f"{key}.wheels", base_scenario, str(base)))
     link.update(_read_plan(r, d.get("plan"), f"{key}.plan", base_scenario, str(base)))
+    if d.get("goal_near_keep_out") is not None:
+        near_key = f"{key}.goal_near_keep_out"
+        near = r.mapping(d["goal_near_keep_out"], near_key, {"offset_deg"})
+        if "offset_deg" not in near:
+            raise r.fail(f"{near_key}.offset_deg", "missing")
+        if d.get("plan") is not None:
+            raise r.fail(near_key, "places the one goal: not with plan")
+        link["goal_near_keep_out_deg"] = r.pair(
+            near["offset_deg"], f"{near_key}.offset_deg", 0.0, True
+        )
     variants = c.get("planner_variants", ["improved"])
     if (
         not isinstance(variants, list)

@@ -43,7 +43,9 @@ def _percentiles(values: pd.Series) -> dict[str, float | int | None]:
 def summarize_campaign(frame: pd.DataFrame) -> dict[str, Any]:
     """Per variant: outcome counts and rates with 95 % Wilson intervals; percentiles of
     ``t_reach_s``, ``rotation_ratio``, ``rotation_to_route`` and
-    ``t_reach_x_peak_rate_rad`` (reached runs) and ``min_margin_deg`` (all)."""
+    ``t_reach_x_peak_rate_rad`` (reached runs) and ``min_margin_deg`` (all); the
+    ``blocked`` runs whose goal the sky covered during the run and those whose goal it
+    never covered (``blocked_goal``; a blocked goal should be a covered one)."""
     variants: dict[str, Any] = {}
     for variant, group in frame.groupby("variant", sort=False):
         n = len(group)
@@ -63,6 +65,13 @@ def summarize_campaign(frame: pd.DataFrame) -> dict[str, Any]:
             "t_reach_x_peak_rate_rad": _percentiles(reached["t_reach_x_peak_rate_rad"]),
             "min_margin_deg": _percentiles(group["min_margin_deg"]),
         }
+        if "t_goal_covered_s" in group:  # tables written before the column: none
+            blocked = group[group["outcome"] == "blocked"]
+            never = int(blocked["t_goal_covered_s"].isna().sum())
+            variants[str(variant)]["blocked_goal"] = {
+                "covered": len(blocked) - never,
+                "never_covered": never,
+            }
     return {"variants": variants}
 
 

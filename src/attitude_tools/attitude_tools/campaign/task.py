@@ -194,6 +194,8 @@ def run_task(spec: CampaignSpec, i: int, variant: str) -> dict[str, Any]:
         "time_ratio_to_bound": (
             math.nan if summary["time_ratio_to_bound"] is None else summary["time_ratio_to_bound"]
         ),
+        "goal_min_margin_deg": summary["goal_min_margin_deg"],
+        "t_goal_covered_s": _or_nan(summary["t_goal_covered_s"]),
         "peak_rate_rad_s": summary["peak_rate_rad_s"],
         "peak_torque_nm": summary["peak_torque_nm"],
         "planner_step_us_median": summary["planner_step_us_median"],
