@@ -205,11 +205,13 @@ def test_goal_report_round_trips_through_its_diagnostic_values():
     assert entry["outcome"] == "refused" and entry["t_reach_s"] is None and entry["dwell_s"] is None
 
 
-def test_a_goal_the_moving_sky_covers_within_its_dwell_is_refused_when_judged():
-    """On a moving sky the goal is judged until the end of its dwell after the slew: an
-    attitude that points the star tracker where the mover will be in 80 s is clear now,
-    refused with a 100 s dwell, and taken when held until the next goal (the guidance
-    then watches the sky, as for a single slew)."""
+def test_a_goal_the_moving_sky_leaves_no_clear_dwell_is_refused_when_judged():
+    """On a moving sky a goal with a dwell is refused only when the sky leaves it no
+    clear stretch of its dwell between its expected arrival and the run's end: an
+    attitude that points the star tracker where the mover will be in 80 s (covered from
+    28 s to 132 s of a 200 s run) is clear now, taken with a 50 s dwell (held after the
+    mover has passed), refused with a 100 s one, and taken when held until the next goal
+    (the guidance then watches the sky, as for a single slew)."""
     from scipy.spatial.transform import Rotation
 
     sc = load_scenario(ROOT / "scenarios" / "moving_object.yaml")
@@ -220,7 +222,9 @@ def test_a_goal_the_moving_sky_covers_within_its_dwell_is_refused_when_judged():
     sigma = rot.as_mrp()
     assert goal_clearance(sc, 0.0, sigma, 0.0) == ""  # clear now (and no dwell)
     assert goal_clearance(sc, 0.0, sigma, math.inf) == ""  # judged now only
+    assert goal_clearance(sc, 0.0, sigma, 50.0) == ""  # clear 133-200 s
+    assert goal_clearance(sc, 0.0, sigma, 80.0, eta_s=100.0) != ""  # clear 67 s after 132 s
     why = goal_clearance(sc, 0.0, sigma, 100.0)
-    assert "inside the keep-out of star_tracker/mover" in why and "within its dwell" in why
+    assert "no clear 100.0 s" in why and "star_tracker/mover covers it" in why
     t_hit = float(why.split("at t = ")[1].split(" s")[0])
     assert 0.0 < t_hit <= 80.0

@@ -17,7 +17,7 @@ from test_goal_sequence import _Loop
 
 from attitude_core.assembly.guidance import buffer_deg, guidance_from_scenario
 from attitude_core.config.scenario_flatten import flatten_parameters
-from attitude_core.config.scenario_loader import load_scenario, parse_scenario
+from attitude_core.config.scenario_loader import load_scenario, loads_scenario, parse_scenario
 from attitude_core.contract.status import GoalOutcome, PlannerStatus
 from attitude_core.fsw.guidance.goal_watch import goal_blockages, goal_margin_bounds_deg
 from attitude_core.loop.closed_loop import run_closed_loop
@@ -153,3 +153,29 @@ def test_a_static_sky_keeps_its_buffer_rule():
     assert guidance_from_scenario(sc).planner.geometry.inflation_deg == buffer_deg(
         sc, sc.initial_mrp
     )
+
+
+def test_a_plan_target_the_sky_covers_for_a_while_is_waited_for_not_refused():
+    """A plan target the mover covers from 28 s to 132 s, with a 50 s dwell in a 400 s
+    run: flyable (held after the mover has passed), so flown, not refused; the next
+    target follows. The body never enters a cone."""
+    sc = load_scenario(ROOT / "scenarios" / "moving_object.yaml")
+    mover = sc.bright_object_names.index("mover")
+    ahead = sc.sky.object_directions(80.0)[0][mover]
+    rot, _ = Rotation.align_vectors([ahead], [[1.0, 0.0, 0.0]])  # C_NB: +x at the mover
+    sigma = [float(x) for x in rot.as_mrp()]
+    text = (ROOT / "scenarios" / "moving_object.yaml").read_text()
+    text = text.replace("    sim_time_s: 200.0", "    sim_time_s: 400.0")
+    plan = (
+        f"    plan:\n      names: [covered, after]\n      covered:\n"
+        f"        desired_mrp: {sigma}\n        dwell_s: 50.0\n      after:\n"
+        "        desired_mrp: [0.0, -0.2, -0.7]\n        dwell_s: 10.0\n"
+    )
+    text = text.replace("    desired_mrp: [0.0, -0.2, -0.7]\n", plan)
+    planned = loads_scenario(text, str(ROOT / "scenarios" / "moving_object.yaml"))
+    run = run_closed_loop(planned)
+    covered, after = run.goals
+    assert covered.outcome is GoalOutcome.REACHED and covered.t_reach_s > 132.0
+    assert after.outcome is GoalOutcome.REACHED
+    assert PlannerStatus.BLOCKED.code in set(run.planner_status.tolist())  # waited it out
+    assert dense_min_margin_deg(planned.sky, run.t, run.sigma_bn, run.omega_b)[0] > 0.0

@@ -8,10 +8,13 @@ record (:class:`~attitude_core.contract.goals.GoalReport`), reported when it is 
 and when it ends (:attr:`GoalSequence.reports`).
 
 * A goal is judged at the first state after it came (:func:`goal_clearance`): one whose
-  attitude puts an instrument inside a keep-out, or an axis outside a keep-in cone, now
-  or, on a moving sky, until the end of its dwell after the expected slew, is
-  **refused** before any torque, with the reason; so is one no route reaches
-  (enclosed). The goal in force stays; the status
+  attitude puts an instrument inside a keep-out, or an axis outside a keep-in cone, now,
+  or, on a moving sky, that the sky leaves no clear stretch of its dwell between its
+  expected arrival and the run's end, is **refused** before any torque, with the
+  reason; so is one no route reaches (enclosed). A coverage the body can wait out is
+  flown (``blocked`` meanwhile). The guidance's buffer is capped by the goal's least
+  margin until the end of its dwell
+  (:func:`~attitude_core.assembly.guidance.buffer_deg`). The goal in force stays; the status
   ``refused`` is reported for that state.
 * Otherwise it preempts the goal in force (``preempted``, or ``reached`` if the body had
   arrived) and a new guidance is planned from the measured state, rate included (the
@@ -62,28 +65,50 @@ def goal_clearance(
     scenario: Scenario, t_s: float, sigma_goal: Vec3Like, dwell_s: float, eta_s: float = 0.0
 ) -> str:
     """Why the attitude ``sigma_goal`` cannot be held (an instrument inside a keep-out or
-    an axis outside a keep-in, eq. 5), or "" if it can: now, and on a moving sky until
-    the end of its dwell, ``t_s + eta_s + dwell_s`` (``eta_s``: the expected slew), sampled
-    every :data:`CLEARANCE_STEP_S`. A goal held until the next (unbounded dwell) is judged
-    now only: on a moving sky the guidance holds it clear of what covers it later and
-    reports it ``blocked``, as a single slew's."""
+    an axis outside a keep-in, eq. 5), or "" if it can.
+
+    Refused when it is inside now. On a moving sky, a goal with a bounded dwell is also
+    refused when the sky leaves it no clear stretch of its dwell between its expected
+    arrival, ``t_s + eta_s``, and the run's end (sampled every
+    :data:`CLEARANCE_STEP_S`; a dwell longer than what is left of the run asks for the
+    rest of the run). A coverage the body can wait out is no reason: the guidance holds
+    the body clear of it (``blocked``) and flies the goal after, as a single slew's. A
+    goal held until the next (unbounded dwell) is judged now only."""
     sky = scenario.sky
-    end = t_s + eta_s + dwell_s if math.isfinite(dwell_s) else t_s
-    end = min(end, sky.horizon_s)
-    times = [t_s] if sky.static or end <= t_s else [*np.arange(t_s, end, CLEARANCE_STEP_S), end]
     names = scenario.constraint_names
-    for t in times:
-        margins = sky.constraint_margins_deg(float(t), np.asarray(sigma_goal, dtype=float))
-        c = int(np.argmin(margins))
-        if margins[c] <= 0.0:
-            when = "" if t == t_s else f" at t = {t:.1f} s, within its dwell"
-            what = (
-                f"outside keep-in cone {names[c]}"
-                if names[c].startswith("keep_in/")
-                else f"inside the keep-out of {names[c]}"
-            )
-            return f"the goal attitude is {what} (margin {margins[c]:.2f} deg){when}"
-    return ""
+    margins = sky.constraint_margins_deg(float(t_s), np.asarray(sigma_goal, dtype=float))
+    c = int(np.argmin(margins))
+    if margins[c] <= 0.0:
+        what = (
+            f"outside keep-in cone {names[c]}"
+            if names[c].startswith("keep_in/")
+            else f"inside the keep-out of {names[c]}"
+        )
+        return f"the goal attitude is {what} (margin {margins[c]:.2f} deg)"
+    end = min(scenario.sim_time_s, sky.horizon_s) if not sky.static else t_s
+    arrive = min(t_s + eta_s, end)
+    if sky.static or not math.isfinite(dwell_s) or end <= t_s:
+        return ""
+    need = min(dwell_s, end - arrive)
+    times = np.append(np.arange(arrive, end, CLEARANCE_STEP_S), end)
+    goal = np.broadcast_to(np.asarray(sigma_goal, dtype=float), (len(times), 3))
+    ahead = sky.constraint_margins_deg(times, goal)
+    clear = ahead.min(axis=1) > 0.0
+    run_from: float | None = None
+    for t, ok in zip(times, clear, strict=True):
+        if not ok:
+            run_from = None
+        elif run_from is None:
+            run_from = float(t)
+        if run_from is not None and t - run_from >= need:
+            return ""
+    first = int(np.argmax(~clear))
+    c = int(np.argmin(ahead[first]))
+    return (
+        f"the sky leaves the goal no clear {dwell_s:.1f} s after its expected arrival at "
+        f"{arrive:.1f} s before the run's end: {names[c]} covers it at t = "
+        f"{times[first]:.1f} s (margin {ahead[first, c]:.2f} deg)"
+    )
 
 
 class GoalSequence:
