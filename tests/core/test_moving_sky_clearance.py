@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
+from scipy.spatial.transform import Rotation, Slerp
+from sky_oracle import independent_margins_deg
 from test_goal_sequence import _Loop
 
 from attitude_core.assembly.guidance import buffer_deg, guidance_from_scenario
@@ -78,6 +79,15 @@ def test_a_goal_just_outside_a_keep_out_the_sky_never_covers_is_flown(margin_deg
     assert dense > 0.0 and dense == s.min_margin_deg
     assert s.goal_min_margin_deg == pytest.approx(history.min(), abs=1e-6)
     assert s.t_goal_covered_s is None
+    # On an independent sky (astropy's Sun, a two-body orbit): the slew and its settling
+    # between the samples too (Slerp midpoints), then every second while held.
+    k = int(np.searchsorted(run.t, s.t_reach_s + 30.0))
+    fine = np.concatenate([np.linspace(run.t[0], run.t[k], 2 * k + 1), run.t[k + 10 :: 10]])
+    body = Slerp(run.t, Rotation.from_mrp(run.sigma_bn))(fine).as_mrp()
+    oracle = independent_margins_deg(sc, fine, body)
+    assert oracle.min() > 0.0 and oracle.min() == pytest.approx(dense, abs=0.02)
+    goal = independent_margins_deg(sc, fine, np.tile(sc.desired_mrp, (len(fine), 1)))
+    assert goal.min() > 0.0
     # The same slew on the sky frozen at t = 0: the same buffer and the same flight.
     frozen = _near_sun(margin_deg, frozen=True)
     fs = summarize(run_closed_loop(frozen))

@@ -11,13 +11,12 @@ from __future__ import annotations
 
 import json
 import math
-import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 from scipy.spatial.transform import Rotation, Slerp
+from sky_oracle import independent_margins_deg as _independent_margins_deg
 from support import attitude_run, needs_workspace
 
 from attitude_core.contract.diagnostics import STATUS_NAME
@@ -28,67 +27,6 @@ from attitude_tools.bag.run_record import run_from_bag, scenario_from_bag
 
 ROOT = Path(__file__).resolve().parents[2]
 pytestmark = [pytest.mark.ros, needs_workspace]
-MU = 398_600.4418  # km^3/s^2
-RADIUS_KM = {"sun": 695_700.0, "moon": 1737.4, "earth": 6378.137}
-
-
-def _orbit_positions_km(orbit, t_s: np.ndarray) -> np.ndarray:
-    """The spacecraft by numerical integration of r'' = -mu r / |r|^3 from the elements."""
-    a, e = orbit.semi_major_axis_km, orbit.eccentricity
-    i, raan, argp, nu = (
-        math.radians(x)
-        for x in (
-            orbit.inclination_deg,
-            orbit.raan_deg,
-            orbit.arg_perigee_deg,
-            orbit.true_anomaly_deg,
-        )
-    )
-    p = a * (1.0 - e * e)
-    r_pf = p / (1.0 + e * math.cos(nu)) * np.array([math.cos(nu), math.sin(nu), 0.0])
-    v_pf = math.sqrt(MU / p) * np.array([-math.sin(nu), e + math.cos(nu), 0.0])
-    rot = Rotation.from_euler("ZXZ", [raan, i, argp])  # perifocal -> GCRS
-    y0 = np.concatenate([rot.apply(r_pf), rot.apply(v_pf)])
-
-    def f(_t, y):
-        r = y[:3]
-        return np.concatenate([y[3:], -MU * r / np.linalg.norm(r) ** 3])
-
-    sol = solve_ivp(f, (0.0, float(t_s[-1])), y0, t_eval=t_s, rtol=1e-11, atol=1e-6)
-    return sol.y[:3].T
-
-
-def _independent_margins_deg(sc, t_s: np.ndarray, sigma_bn: np.ndarray) -> np.ndarray:
-    """Every avoided pair's margin from the limb, ``(n, pairs)``, without attitude_core's sky."""
-    from astropy import units as u
-    from astropy.coordinates import GCRS, get_body
-    from astropy.time import Time
-    from astropy.utils import iers
-
-    iers.conf.auto_download = False
-    times = Time(sc.epoch_utc.replace("Z", ""), scale="utc") + t_s * u.s
-    r_sc = _orbit_positions_km(sc.orbit, t_s)
-    where = {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        for body in ("sun", "moon"):
-            gcrs = get_body(body, times, ephemeris="builtin").transform_to(GCRS(obstime=times))
-            where[body] = gcrs.cartesian.xyz.to_value(u.km).T - r_sc
-    where["earth"] = -r_sc
-    bore = Rotation.from_mrp(sigma_bn)  # C_NB: body vectors in inertial axes
-    out = []
-    for inst in sc.instruments:
-        s_n = bore.apply(np.array(inst.boresight_body))
-        for obj in sc.bright_objects:
-            if obj.name not in inst.avoids:
-                continue
-            rel = where[obj.ephemeris]
-            d = np.linalg.norm(rel, axis=1)
-            cos = np.einsum("ij,ij->i", s_n, rel / d[:, None])
-            excl = dict(inst.exclusion_deg).get(obj.name, inst.half_angle_deg)
-            radius = np.degrees(np.arcsin(RADIUS_KM[obj.ephemeris] / d))
-            out.append(np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) - excl - radius)
-    return np.array(out).T
 
 
 def _dense(t: np.ndarray, sigma: np.ndarray, per: int = 4) -> tuple[np.ndarray, np.ndarray]:
