@@ -64,7 +64,7 @@ def buffer_deg(
 
     One rule for a static and a moving sky. On a moving sky the start's margin is taken
     at ``t0_s`` (the state the guidance starts from) and the goal's is its least over
-    the time it is held, ``[t0_s, hold_until_s]`` (default: the run's end,
+    the time it is held, ``[t0_s, hold_until_s]`` (default and at most: the run's end,
     ``sim_time_s``), a lower bound between samples
     (:func:`~attitude_core.fsw.guidance.goal_watch.goal_margin_bounds_deg`): a goal the
     sky never covers in that span is never blocked. When the sky does cover it (its
@@ -79,7 +79,7 @@ def buffer_deg(
         end_margin = min(float(exact.min_margin_deg(end)) for end in ends)
         return min(wanted, 0.5 * max(end_margin, 0.0))
     start = float(np.min(sky.constraint_margins_deg(t0_s, np.asarray(sigma_0, dtype=float))))
-    until = scenario.sim_time_s if hold_until_s is None else hold_until_s
+    until = scenario.sim_time_s if hold_until_s is None else min(hold_until_s, scenario.sim_time_s)
     least, greatest = goal_margin_bounds_deg(sky, scenario.desired_mrp, t0_s, until)
     goal = least if least > 0.0 else greatest if greatest > 0.0 else math.inf
     return min(wanted, 0.5 * max(min(start, goal), 0.0))
