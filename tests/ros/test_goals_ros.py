@@ -19,6 +19,7 @@ import pytest
 from support import needs_workspace
 
 from attitude_core.config.scenario_loader import load_scenario
+from attitude_core.contract.diagnostics import STATUS_NAME
 from attitude_core.contract.goals import GOAL_DIAGNOSTIC_NAME
 from attitude_core.contract.topics import DIAGNOSTICS, GOAL
 from attitude_core.loop.closed_loop import run_closed_loop
@@ -87,6 +88,7 @@ class Operator:
         self.msg_type = QuaternionStamped
         self.pub = self.node.create_publisher(QuaternionStamped, GOAL.lstrip("/"), 10)
         self.reports: list[dict[str, str]] = []
+        self.steps = 0  # the planner's per-step reports heard: the run is active
         self.node.create_subscription(
             DiagnosticArray,
             DIAGNOSTICS,
@@ -98,6 +100,7 @@ class Operator:
 
     def _on_diag(self, msg) -> None:
         for st in msg.status:
+            self.steps += st.name == STATUS_NAME
             if st.name == GOAL_DIAGNOSTIC_NAME:
                 self.reports.append({kv.key: kv.value for kv in st.values})
 
@@ -148,6 +151,9 @@ def test_an_operator_commands_a_running_stack_then_stops_it(tmp_path, ros_domain
     try:
         # The planner and the recorder subscribe the goal once they are configured.
         op.wait(lambda: op.pub.get_subscription_count() >= 2, "goal subscribers", 120.0, alive)
+        # ... and the run is active (the recorder records while active only: a goal sent
+        # before would be flown but not in the bag).
+        op.wait(lambda: op.steps > 0, "a planner step", 120.0, alive)
         op.send(1, constrained)
         op.wait(lambda: op.report(1, "accepted", arrived=True), "arrival", 240.0, alive)
         op.send(2, blind)
