@@ -71,6 +71,12 @@ class Blockage:
         )
 
 
+def _margin_rate_bounds_deg_s(sky: Sky) -> npt.NDArray[np.float64]:
+    """A bound on each constraint margin's rate, deg/s, in the order of
+    :meth:`Sky.constraint_margins_deg` (keep-out pairs by their object, then keep-in)."""
+    return np.concatenate([sky.rate_bounds_deg_s[sky.pair_object], sky.keep_in_rate_bounds_deg_s])
+
+
 def goal_blockages(
     sky: Sky,
     goal: Vec3Like,
@@ -86,7 +92,7 @@ def goal_blockages(
         return []
     t = np.arange(t0_s, t1_s + step_s, step_s)
     margins = sky.constraint_margins_deg(t, np.broadcast_to(np.asarray(goal, float), (len(t), 3)))
-    rates = np.concatenate([sky.rate_bounds_deg_s[sky.pair_object], sky.keep_in_rate_bounds_deg_s])
+    rates = _margin_rate_bounds_deg_s(sky)
     short = margins < clearance_deg + 0.5 * step_s * rates[None, :]
     blocked: npt.NDArray[np.bool_] = np.asarray(short.any(axis=1))
     out: list[Blockage] = []
@@ -131,7 +137,7 @@ def goal_margin_bounds_deg(
         return m, m
     t = np.append(np.arange(t0_s, t1_s, step_s), t1_s)
     margins = sky.constraint_margins_deg(t, np.broadcast_to(g, (len(t), 3)))
-    rates = np.concatenate([sky.rate_bounds_deg_s[sky.pair_object], sky.keep_in_rate_bounds_deg_s])
+    rates = _margin_rate_bounds_deg_s(sky)
     low = (margins - 0.5 * step_s * rates[None, :]).min(axis=1)
     return float(low.min()), float(low.max())
 
