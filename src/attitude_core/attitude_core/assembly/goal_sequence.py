@@ -275,9 +275,11 @@ class GoalSequence:
             rec = replace(rec, t_start_s=t_s, rotation_deg=rotation)
             if rec.source == SOURCE_PLAN:  # a plan's target is commanded when its turn comes
                 rec = replace(rec, t_commanded_s=t_s)
-            eta = 0.0 if self.scenario.sky.static else scenario_eta_s(self.scenario, sigma_bn)
+            eta = 0.0  # the expected slew to this goal (a moving sky only)
+            if not self.scenario.sky.static:
+                eta = scenario_eta_s(self.scenario.retargeted(np.asarray(rec.sigma_goal)), sigma_bn)
             why = goal_clearance(self.scenario, t_s, rec.sigma_goal, rec.dwell_s, eta)
-            guidance = None if why else self._guidance(rec, t_s, sigma_bn, omega_b)
+            guidance = None if why else self._guidance(rec, t_s, sigma_bn, omega_b, eta)
             if guidance is not None and guidance.status is PlannerStatus.INFEASIBLE:
                 why = guidance.reason
                 if rec.source == SOURCE_TOPIC:  # a received goal no route reaches: refused
@@ -289,7 +291,7 @@ class GoalSequence:
                 self._set(k, replace(rec, t_start_s=math.nan).ended(outcome, t_s, why))
                 if self.guidance is None and not self.queue and not self.incoming:
                     # nothing was ever in force: the target holds the start
-                    hold = guidance or self._guidance(rec, t_s, sigma_bn, omega_b)
+                    hold = guidance or self._guidance(rec, t_s, sigma_bn, omega_b, eta)
                     hold.declare_infeasible(why)
                     self.guidance = hold
                 continue
@@ -350,14 +352,15 @@ class GoalSequence:
                 self._set(k, cur.ended(GoalOutcome.NOT_REACHED, t_s, "stuck"))
 
     def _guidance(
-        self, rec: GoalReport, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like
+        self, rec: GoalReport, t_s: float, sigma_bn: Vec3Like, omega_b: Vec3Like, eta_s: float
     ) -> Guidance:
         """The guidance of ``rec`` from the measured state (the profile from the body's
-        rate): with what was prepared for the scenario's first goal, when it is that."""
+        rate): with what was prepared for the scenario's first goal, when it is that.
+        ``eta_s``: the expected slew to it (a moving sky: its dwell's hold ends then)."""
         scenario = self.scenario.retargeted(np.asarray(rec.sigma_goal))
         hold_until = None  # held until the next goal: the run's end
         if not scenario.sky.static and math.isfinite(rec.dwell_s):
-            hold_until = t_s + scenario_eta_s(scenario, sigma_bn) + rec.dwell_s
+            hold_until = t_s + eta_s + rec.dwell_s
         first = (  # prepared with the goal held to the run's end (buffer_deg)
             self.prepared is not None
             and hold_until is None
